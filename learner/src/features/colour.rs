@@ -1,0 +1,25 @@
+//! Colour statistics (§5.3 "Color", eqs. 5.1–5.2).
+//!
+//! PLACEHOLDER: filled in by the family's implementation.
+
+use super::{Family, FeatureInfo, Prepared};
+
+/// Number of features in this family.
+pub const COUNT: usize = 15;
+
+/// Names and docs, in output order.
+pub fn catalogue() -> Vec<FeatureInfo> {
+    (0..COUNT)
+        .map(|i| FeatureInfo {
+            name: Box::leak(format!("colour_placeholder_{i}").into_boxed_str()),
+            family: Family::Colour,
+            doc: "placeholder",
+        })
+        .collect()
+}
+
+/// Writes this family's features of `p` into `out` (length [`COUNT`]).
+pub fn compute(p: &Prepared, out: &mut [f64]) {
+    let _ = p;
+    out.fill(0.0);
+}

@@ -1,0 +1,2 @@
+//! The `learner` command line.
+fn main() {}

@@ -1,0 +1,352 @@
+//! Binary masks and the drawing region Ω of §5.3.
+//!
+//! Ω is "the non-white pixels, dilated by 10 px, with holes filled". Choices made where the
+//! paper is silent:
+//! - a pixel is *white* when each channel is ≥ [`WHITE_THRESHOLD`] (250), so the faint
+//!   anti-aliasing fringe a renderer leaves on white counts as background;
+//! - dilation uses a Euclidean disk (exact distance transform), not a square;
+//! - holes are the background components (4-connected) that do not touch the image border.
+
+use image::RgbImage;
+
+/// A channel value at or above which a pixel counts as white paper.
+pub const WHITE_THRESHOLD: u8 = 250;
+/// The dilation radius of Ω in pixels at 400x400 (§5.3).
+pub const REGION_DILATION: f32 = 10.0;
+
+/// A row-major binary image.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Mask {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// `width * height` flags, row-major.
+    pub data: Vec<bool>,
+}
+
+impl Mask {
+    /// A mask with every pixel set to `value`.
+    pub fn filled(width: usize, height: usize, value: bool) -> Self {
+        Self {
+            width,
+            height,
+            data: vec![value; width * height],
+        }
+    }
+
+    /// Whether `(x, y)` is set.
+    #[inline]
+    pub fn at(&self, x: usize, y: usize) -> bool {
+        self.data[y * self.width + x]
+    }
+
+    /// Whether `(x, y)` is inside the image and set.
+    #[inline]
+    pub fn at_signed(&self, x: isize, y: isize) -> bool {
+        x >= 0
+            && y >= 0
+            && (x as usize) < self.width
+            && (y as usize) < self.height
+            && self.data[y as usize * self.width + x as usize]
+    }
+
+    /// The number of set pixels.
+    pub fn count(&self) -> usize {
+        self.data.iter().filter(|&&b| b).count()
+    }
+
+    /// Pixel-wise AND.
+    pub fn and(&self, other: &Mask) -> Mask {
+        debug_assert_eq!((self.width, self.height), (other.width, other.height));
+        let data = self
+            .data
+            .iter()
+            .zip(&other.data)
+            .map(|(&a, &b)| a && b)
+            .collect();
+        Mask {
+            width: self.width,
+            height: self.height,
+            data,
+        }
+    }
+
+    /// Pixel-wise AND NOT.
+    pub fn and_not(&self, other: &Mask) -> Mask {
+        debug_assert_eq!((self.width, self.height), (other.width, other.height));
+        let data = self
+            .data
+            .iter()
+            .zip(&other.data)
+            .map(|(&a, &b)| a && !b)
+            .collect();
+        Mask {
+            width: self.width,
+            height: self.height,
+            data,
+        }
+    }
+
+    /// Halves both dimensions; a 2x2 block is set when at least two of its pixels are set.
+    pub fn half(&self) -> Mask {
+        let (w, h) = (self.width / 2, self.height / 2);
+        let mut data = Vec::with_capacity(w * h);
+        for y in 0..h {
+            for x in 0..w {
+                let n = [(0, 0), (1, 0), (0, 1), (1, 1)]
+                    .iter()
+                    .filter(|(dx, dy)| self.at(2 * x + dx, 2 * y + dy))
+                    .count();
+                data.push(n >= 2);
+            }
+        }
+        Mask {
+            width: w,
+            height: h,
+            data,
+        }
+    }
+
+    /// Set pixels within Euclidean distance `radius` of a set pixel.
+    pub fn dilate(&self, radius: f32) -> Mask {
+        let dist2 = squared_distance_to_set(self);
+        let r2 = radius * radius;
+        Mask {
+            width: self.width,
+            height: self.height,
+            data: dist2.iter().map(|&d| d <= r2).collect(),
+        }
+    }
+
+    /// Fills holes: unset pixels not 4-connected to the image border through unset pixels.
+    pub fn fill_holes(&self) -> Mask {
+        let (w, h) = (self.width, self.height);
+        let mut outside = vec![false; w * h];
+        let mut stack = Vec::new();
+        let seed = |x: usize, y: usize, outside: &mut Vec<bool>, stack: &mut Vec<usize>| {
+            let i = y * w + x;
+            if !self.data[i] && !outside[i] {
+                outside[i] = true;
+                stack.push(i);
+            }
+        };
+        for x in 0..w {
+            seed(x, 0, &mut outside, &mut stack);
+            seed(x, h - 1, &mut outside, &mut stack);
+        }
+        for y in 0..h {
+            seed(0, y, &mut outside, &mut stack);
+            seed(w - 1, y, &mut outside, &mut stack);
+        }
+        while let Some(i) = stack.pop() {
+            let (x, y) = (i % w, i / w);
+            if x > 0 {
+                seed(x - 1, y, &mut outside, &mut stack);
+            }
+            if x + 1 < w {
+                seed(x + 1, y, &mut outside, &mut stack);
+            }
+            if y > 0 {
+                seed(x, y - 1, &mut outside, &mut stack);
+            }
+            if y + 1 < h {
+                seed(x, y + 1, &mut outside, &mut stack);
+            }
+        }
+        Mask {
+            width: w,
+            height: h,
+            data: outside.iter().map(|&o| !o).collect(),
+        }
+    }
+
+    /// The inner boundary: set pixels with a 4-neighbour that is unset or outside the image.
+    pub fn boundary(&self) -> Mask {
+        let (w, h) = (self.width, self.height);
+        let mut data = vec![false; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                if self.at(x, y) {
+                    let (xi, yi) = (x as isize, y as isize);
+                    data[y * w + x] = !(self.at_signed(xi - 1, yi)
+                        && self.at_signed(xi + 1, yi)
+                        && self.at_signed(xi, yi - 1)
+                        && self.at_signed(xi, yi + 1));
+                }
+            }
+        }
+        Mask {
+            width: w,
+            height: h,
+            data,
+        }
+    }
+}
+
+/// Whether an RGB pixel is white paper (every channel ≥ [`WHITE_THRESHOLD`]).
+#[inline]
+pub fn is_white(p: [u8; 3]) -> bool {
+    p.iter().all(|&c| c >= WHITE_THRESHOLD)
+}
+
+/// The non-white pixels of an image.
+pub fn non_white(image: &RgbImage) -> Mask {
+    Mask {
+        width: image.width() as usize,
+        height: image.height() as usize,
+        data: image.pixels().map(|p| !is_white(p.0)).collect(),
+    }
+}
+
+/// The drawing region Ω of §5.3: non-white pixels, dilated by [`REGION_DILATION`] px, holes
+/// filled. An all-white image yields an empty region.
+pub fn drawing_region(image: &RgbImage) -> Mask {
+    non_white(image).dilate(REGION_DILATION).fill_holes()
+}
+
+/// The silhouette: non-white pixels with holes filled (no dilation). Its boundary is the
+/// external contour used by the contour-only LBP and the outer stroke widths.
+pub fn silhouette(image: &RgbImage) -> Mask {
+    non_white(image).fill_holes()
+}
+
+/// Squared Euclidean distance from every pixel to the nearest set pixel (exact, separable
+/// lower-envelope algorithm of Felzenszwalb & Huttenlocher 2012). `f32::INFINITY` everywhere for
+/// an empty mask.
+pub fn squared_distance_to_set(mask: &Mask) -> Vec<f32> {
+    let (w, h) = (mask.width, mask.height);
+    let inf = 1e20_f32;
+    let mut grid: Vec<f32> = mask
+        .data
+        .iter()
+        .map(|&b| if b { 0.0 } else { inf })
+        .collect();
+    let mut line_in = vec![0.0f32; w.max(h)];
+    let mut line_out = vec![0.0f32; w.max(h)];
+    for x in 0..w {
+        for y in 0..h {
+            line_in[y] = grid[y * w + x];
+        }
+        distance_1d(&line_in[..h], &mut line_out[..h]);
+        for y in 0..h {
+            grid[y * w + x] = line_out[y];
+        }
+    }
+    for y in 0..h {
+        line_in[..w].copy_from_slice(&grid[y * w..(y + 1) * w]);
+        distance_1d(&line_in[..w], &mut line_out[..w]);
+        grid[y * w..(y + 1) * w].copy_from_slice(&line_out[..w]);
+    }
+    grid.iter()
+        .map(|&d| if d >= inf * 0.5 { f32::INFINITY } else { d })
+        .collect()
+}
+
+/// One-dimensional squared distance transform of sampled function `f` (lower envelope of
+/// parabolas), computed in `f64` so the 1e20 "infinity" does not swallow small offsets.
+fn distance_1d(f: &[f32], out: &mut [f32]) {
+    let n = f.len();
+    let mut v = vec![0usize; n];
+    let mut z = vec![0.0f64; n + 1];
+    let fv = |i: usize| f[i] as f64 + (i * i) as f64;
+    let mut k = 0usize;
+    z[0] = f64::NEG_INFINITY;
+    z[1] = f64::INFINITY;
+    for q in 1..n {
+        let mut s = (fv(q) - fv(v[k])) / (2.0 * (q as f64 - v[k] as f64));
+        while s <= z[k] {
+            k -= 1;
+            s = (fv(q) - fv(v[k])) / (2.0 * (q as f64 - v[k] as f64));
+        }
+        k += 1;
+        v[k] = q;
+        z[k] = s;
+        z[k + 1] = f64::INFINITY;
+    }
+    k = 0;
+    for (q, o) in out.iter_mut().enumerate() {
+        while z[k + 1] < q as f64 {
+            k += 1;
+        }
+        let d = q as f64 - v[k] as f64;
+        *o = (d * d + f[v[k]] as f64) as f32;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn brute_force_dist2(mask: &Mask) -> Vec<f32> {
+        let mut out = vec![f32::INFINITY; mask.width * mask.height];
+        for y in 0..mask.height {
+            for x in 0..mask.width {
+                for sy in 0..mask.height {
+                    for sx in 0..mask.width {
+                        if mask.at(sx, sy) {
+                            let d = (x as f32 - sx as f32).powi(2) + (y as f32 - sy as f32).powi(2);
+                            out[y * mask.width + x] = out[y * mask.width + x].min(d);
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    proptest! {
+        #[test]
+        fn distance_transform_matches_brute_force(w in 1usize..12, h in 1usize..12, bits in proptest::collection::vec(any::<bool>(), 144)) {
+            let mask = Mask { width: w, height: h, data: bits[..w * h].to_vec() };
+            let fast = squared_distance_to_set(&mask);
+            let slow = brute_force_dist2(&mask);
+            for (a, b) in fast.iter().zip(&slow) {
+                prop_assert!((a.is_infinite() && b.is_infinite()) || (a - b).abs() < 1e-3, "{a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn dilation_is_a_disk() {
+        let mut m = Mask::filled(31, 31, false);
+        m.data[15 * 31 + 15] = true;
+        let d = m.dilate(10.0);
+        assert!(d.at(25, 15) && d.at(15, 5) && !d.at(26, 15));
+        assert!(d.at(22, 22) && !d.at(23, 23)); // 7²+7² = 98 ≤ 100 < 128
+    }
+
+    #[test]
+    fn fill_holes_fills_a_ring_but_not_an_open_shape() {
+        let mut ring = Mask::filled(9, 9, false);
+        for i in 2..7 {
+            for (x, y) in [(i, 2), (i, 6), (2, i), (6, i)] {
+                ring.data[y * 9 + x] = true;
+            }
+        }
+        let filled = ring.fill_holes();
+        assert!(filled.at(4, 4) && !filled.at(0, 0));
+        assert_eq!(filled.count(), 25);
+        let mut open = ring.clone();
+        open.data[2 * 9 + 4] = false;
+        assert_eq!(open.fill_holes(), open);
+    }
+
+    #[test]
+    fn drawing_region_of_white_page_is_empty() {
+        let img = RgbImage::from_pixel(40, 40, image::Rgb([255, 255, 255]));
+        assert_eq!(drawing_region(&img).count(), 0);
+    }
+
+    #[test]
+    fn boundary_of_square() {
+        let mut m = Mask::filled(6, 6, false);
+        for y in 1..5 {
+            for x in 1..5 {
+                m.data[y * 6 + x] = true;
+            }
+        }
+        assert_eq!(m.boundary().count(), 12);
+    }
+}
