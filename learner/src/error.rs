@@ -74,6 +74,9 @@ pub enum Error {
     /// An input path is neither a supported file nor a folder.
     #[error("unsupported input {0}: expected a folder, .svg, .png, .jpg/.jpeg or Iconify .json")]
     UnsupportedInput(PathBuf),
+    /// Two inputs produce the same item id.
+    #[error("duplicate id '{0}' (the first item with this id is kept)")]
+    DuplicateId(String),
     /// The image is all white: there is no drawing to describe.
     #[error("image is blank (no non-white pixels)")]
     BlankImage,

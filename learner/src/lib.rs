@@ -17,6 +17,8 @@
 pub mod edges;
 mod error;
 pub mod features;
+pub mod iconify;
+pub mod input;
 pub mod mask;
 pub mod plane;
 pub mod render;
