@@ -1,7 +1,9 @@
-//! End-to-end tests of the workspace's binaries live in `tests/tests/`; this library only holds
-//! helpers they share.
+//! Helpers shared by the end-to-end tests in `tests/tests/`: where the workspace is and how to
+//! run its real binaries.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
 
 /// The workspace root (the parent of this crate's folder).
 pub fn workspace_root() -> PathBuf {
@@ -9,4 +11,47 @@ pub fn workspace_root() -> PathBuf {
         .parent()
         .expect("the tests crate lives one level below the workspace root")
         .to_path_buf()
+}
+
+/// A fixture path below `fixtures/`.
+pub fn fixture(relative: &str) -> PathBuf {
+    workspace_root().join("fixtures").join(relative)
+}
+
+/// The path of a workspace binary built in the same profile as this test, building it once if
+/// the test runner did not (e.g. when only this crate's tests were selected).
+pub fn binary(package: &str, name: &str) -> PathBuf {
+    static BUILT: OnceLock<()> = OnceLock::new();
+    // target/<profile>/deps/<test-exe> → target/<profile>/<name>
+    let exe = std::env::current_exe().expect("test executable path");
+    let profile_dir = exe
+        .parent()
+        .and_then(Path::parent)
+        .expect("test executable in target/<profile>/deps");
+    let path = profile_dir.join(name);
+    BUILT.get_or_init(|| {
+        if !path.exists() {
+            let profile = profile_dir
+                .file_name()
+                .and_then(|p| p.to_str())
+                .unwrap_or("debug");
+            let mut cmd = Command::new(env!("CARGO"));
+            cmd.args(["build", "-p", package, "--bin", name])
+                .current_dir(workspace_root());
+            if profile != "debug" {
+                cmd.args(["--profile", profile]);
+            }
+            let status = cmd.status().expect("run cargo build");
+            assert!(status.success(), "cargo build -p {package} failed");
+        }
+    });
+    path
+}
+
+/// Runs `learner` with `args` and returns its output.
+pub fn learner(args: &[&std::ffi::OsStr]) -> Output {
+    Command::new(binary("learner", "learner"))
+        .args(args)
+        .output()
+        .expect("run learner")
 }
