@@ -23,7 +23,7 @@ impl Gradients {
     /// The gradient magnitude at pixel index `i`.
     #[inline]
     pub fn magnitude(&self, i: usize) -> f32 {
-        self.dx.data[i].hypot(self.dy.data[i])
+        (self.dx.data[i] * self.dx.data[i] + self.dy.data[i] * self.dy.data[i]).sqrt()
     }
 }
 
@@ -84,16 +84,16 @@ pub fn canny(plane: &Plane, params: &CannyParams) -> (Mask, Gradients) {
     let mag: Vec<f32> = (0..w * h).map(|i| grad.magnitude(i)).collect();
     // Non-maximum suppression: compare with the magnitude interpolated one pixel along ±gradient.
     let mut candidate = vec![0u8; w * h]; // 0 none, 1 weak, 2 strong
+    // Interior pixels only and |u| ≤ 1, so x, y ∈ [0, w-1] × [0, h-1]; capping the cell's corner
+    // at (w-2, h-2) keeps all four taps inside the image (fx or fy is then exactly 1).
     let sample = |x: f32, y: f32| -> f32 {
-        let x0 = x.floor().clamp(0.0, (w - 1) as f32);
-        let y0 = y.floor().clamp(0.0, (h - 1) as f32);
+        let (x0, y0) = (x.floor().min((w - 2) as f32), y.floor().min((h - 2) as f32));
         let (xi, yi) = (x0 as usize, y0 as usize);
-        let x1 = (xi + 1).min(w - 1);
-        let y1 = (yi + 1).min(h - 1);
-        let (fx, fy) = ((x - x0).clamp(0.0, 1.0), (y - y0).clamp(0.0, 1.0));
-        let top = mag[yi * w + xi] * (1.0 - fx) + mag[yi * w + x1] * fx;
-        let bottom = mag[y1 * w + xi] * (1.0 - fx) + mag[y1 * w + x1] * fx;
-        top * (1.0 - fy) + bottom * fy
+        let (fx, fy) = (x - x0, y - y0);
+        let i = yi * w + xi;
+        let top = mag[i] + (mag[i + 1] - mag[i]) * fx;
+        let bottom = mag[i + w] + (mag[i + w + 1] - mag[i + w]) * fx;
+        top + (bottom - top) * fy
     };
     for y in 1..h.saturating_sub(1) {
         for x in 1..w.saturating_sub(1) {
@@ -165,6 +165,28 @@ mod tests {
             assert_eq!(row.len(), 1, "row {y}: {row:?}");
             assert!(row[0] == 19 || row[0] == 20);
         }
+    }
+
+    #[test]
+    fn canny_handles_edges_at_the_image_border_and_tiny_images() {
+        for (w, h) in [(3, 3), (1, 5), (2, 2), (17, 4)] {
+            let p = Plane {
+                width: w,
+                height: h,
+                data: (0..w * h).map(|i| (i % 3) as f32).collect(),
+            };
+            let (edges, _) = canny(&p, &CannyParams::default());
+            assert_eq!(edges.data.len(), w * h);
+        }
+        let corner = Plane {
+            width: 8,
+            height: 8,
+            data: (0..64)
+                .map(|i| if i % 8 == 7 || i >= 56 { 1.0 } else { 0.0 })
+                .collect(),
+        };
+        let (edges, _) = canny(&corner, &CannyParams::default());
+        assert!(edges.count() > 0);
     }
 
     #[test]

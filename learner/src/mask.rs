@@ -108,14 +108,61 @@ impl Mask {
         }
     }
 
-    /// Set pixels within Euclidean distance `radius` of a set pixel.
+    /// Set pixels within Euclidean distance `radius` of a set pixel (a disk dilation).
+    ///
+    /// Exact and cheap for the small radii used here: with `run[y][x]` the horizontal distance
+    /// from `(x, y)` to the nearest set pixel of row `y`, a pixel is covered iff some row offset
+    /// `dy` with `|dy| ≤ radius` has `run[y+dy][x]² + dy² ≤ radius²`.
     pub fn dilate(&self, radius: f32) -> Mask {
-        let dist2 = squared_distance_to_set(self);
+        let (w, h) = (self.width, self.height);
+        let r = radius.max(0.0).floor() as usize;
         let r2 = radius * radius;
+        let far = u32::MAX / 4;
+        // Horizontal distance to the nearest set pixel in the same row (two sweeps per row).
+        let mut run = vec![far; w * h];
+        for y in 0..h {
+            let row = &self.data[y * w..(y + 1) * w];
+            let out = &mut run[y * w..(y + 1) * w];
+            let mut last = None;
+            for x in 0..w {
+                if row[x] {
+                    last = Some(x);
+                }
+                if let Some(l) = last {
+                    out[x] = (x - l) as u32;
+                }
+            }
+            last = None;
+            for x in (0..w).rev() {
+                if row[x] {
+                    last = Some(x);
+                }
+                if let Some(l) = last {
+                    out[x] = out[x].min((l - x) as u32);
+                }
+            }
+        }
+        // Row-major sweeps (one per row offset) so the inner loop is a vectorisable compare.
+        let mut data = vec![false; w * h];
+        for y in 0..h {
+            let out = &mut data[y * w..(y + 1) * w];
+            for sy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+                let dy = sy.abs_diff(y) as f32;
+                let budget = r2 - dy * dy;
+                if budget < 0.0 {
+                    continue;
+                }
+                // run² ≤ budget  ⇔  run ≤ ⌊√budget⌋ for integer runs.
+                let max_run = budget.sqrt().floor() as u32;
+                for (o, &d) in out.iter_mut().zip(&run[sy * w..(sy + 1) * w]) {
+                    *o |= d <= max_run;
+                }
+            }
+        }
         Mask {
-            width: self.width,
-            height: self.height,
-            data: dist2.iter().map(|&d| d <= r2).collect(),
+            width: w,
+            height: h,
+            data,
         }
     }
 
@@ -216,41 +263,59 @@ pub fn silhouette(image: &RgbImage) -> Mask {
 /// an empty mask.
 pub fn squared_distance_to_set(mask: &Mask) -> Vec<f32> {
     let (w, h) = (mask.width, mask.height);
-    let inf = 1e20_f32;
-    let mut grid: Vec<f32> = mask
+    let inf = 1e20_f64;
+    let mut grid: Vec<f64> = mask
         .data
         .iter()
         .map(|&b| if b { 0.0 } else { inf })
         .collect();
-    let mut line_in = vec![0.0f32; w.max(h)];
-    let mut line_out = vec![0.0f32; w.max(h)];
+    let n = w.max(h);
+    let mut scratch = Scratch {
+        f: vec![0.0; n],
+        out: vec![0.0; n],
+        v: vec![0; n],
+        z: vec![0.0; n + 1],
+    };
     for x in 0..w {
         for y in 0..h {
-            line_in[y] = grid[y * w + x];
+            scratch.f[y] = grid[y * w + x];
         }
-        distance_1d(&line_in[..h], &mut line_out[..h]);
+        distance_1d(&mut scratch, h);
         for y in 0..h {
-            grid[y * w + x] = line_out[y];
+            grid[y * w + x] = scratch.out[y];
         }
     }
     for y in 0..h {
-        line_in[..w].copy_from_slice(&grid[y * w..(y + 1) * w]);
-        distance_1d(&line_in[..w], &mut line_out[..w]);
-        grid[y * w..(y + 1) * w].copy_from_slice(&line_out[..w]);
+        scratch.f[..w].copy_from_slice(&grid[y * w..(y + 1) * w]);
+        distance_1d(&mut scratch, w);
+        grid[y * w..(y + 1) * w].copy_from_slice(&scratch.out[..w]);
     }
     grid.iter()
-        .map(|&d| if d >= inf * 0.5 { f32::INFINITY } else { d })
+        .map(|&d| {
+            if d >= inf * 0.5 {
+                f32::INFINITY
+            } else {
+                d as f32
+            }
+        })
         .collect()
 }
 
-/// One-dimensional squared distance transform of sampled function `f` (lower envelope of
-/// parabolas), computed in `f64` so the 1e20 "infinity" does not swallow small offsets.
-fn distance_1d(f: &[f32], out: &mut [f32]) {
-    let n = f.len();
-    let mut v = vec![0usize; n];
-    let mut z = vec![0.0f64; n + 1];
-    let fv = |i: usize| f[i] as f64 + (i * i) as f64;
+/// Buffers reused across the 1-D transforms of one image.
+struct Scratch {
+    f: Vec<f64>,
+    out: Vec<f64>,
+    v: Vec<usize>,
+    z: Vec<f64>,
+}
+
+/// One-dimensional squared distance transform of the first `n` samples of `s.f` into `s.out`
+/// (lower envelope of parabolas), in `f64` so the 1e20 "infinity" does not swallow small offsets.
+fn distance_1d(s: &mut Scratch, n: usize) {
+    let Scratch { f, out, v, z } = s;
+    let fv = |i: usize| f[i] + (i * i) as f64;
     let mut k = 0usize;
+    v[0] = 0;
     z[0] = f64::NEG_INFINITY;
     z[1] = f64::INFINITY;
     for q in 1..n {
@@ -265,12 +330,12 @@ fn distance_1d(f: &[f32], out: &mut [f32]) {
         z[k + 1] = f64::INFINITY;
     }
     k = 0;
-    for (q, o) in out.iter_mut().enumerate() {
+    for q in 0..n {
         while z[k + 1] < q as f64 {
             k += 1;
         }
         let d = q as f64 - v[k] as f64;
-        *o = (d * d + f[v[k]] as f64) as f32;
+        out[q] = d * d + f[v[k]];
     }
 }
 
@@ -305,6 +370,17 @@ mod tests {
             for (a, b) in fast.iter().zip(&slow) {
                 prop_assert!((a.is_infinite() && b.is_infinite()) || (a - b).abs() < 1e-3, "{a} vs {b}");
             }
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn dilation_matches_the_distance_transform(w in 1usize..30, h in 1usize..30, radius in 0.0f32..12.0, seed in any::<u64>()) {
+            let data = (0..w * h).map(|i| (seed.wrapping_mul(i as u64 + 1).rotate_left(17) % 23) == 0).collect();
+            let mask = Mask { width: w, height: h, data };
+            let dist2 = squared_distance_to_set(&mask);
+            let expected: Vec<bool> = dist2.iter().map(|&d| d <= radius * radius).collect();
+            prop_assert_eq!(mask.dilate(radius).data, expected);
         }
     }
 

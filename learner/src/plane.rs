@@ -59,34 +59,46 @@ impl Plane {
     /// Separable Gaussian blur with standard deviation `sigma` (kernel radius ⌈3σ⌉, replicate
     /// border). `sigma <= 0` returns a copy.
     pub fn gaussian_blur(&self, sigma: f32) -> Plane {
-        if sigma <= 0.0 {
+        if sigma <= 0.0 || self.data.is_empty() {
             return self.clone();
         }
-        let radius = (3.0 * sigma).ceil() as isize;
-        let mut kernel: Vec<f32> = (-radius..=radius)
-            .map(|i| (-(i * i) as f32 / (2.0 * sigma * sigma)).exp())
+        let radius = (3.0 * sigma).ceil() as usize;
+        let mut kernel: Vec<f32> = (0..=2 * radius)
+            .map(|i| {
+                let d = i as f32 - radius as f32;
+                (-(d * d) / (2.0 * sigma * sigma)).exp()
+            })
             .collect();
         let sum: f32 = kernel.iter().sum();
         kernel.iter_mut().for_each(|k| *k /= sum);
         let (w, h) = (self.width, self.height);
+        // Rows: pad each row by replication once, then a branch-free dot product per pixel.
         let mut tmp = Plane::filled(w, h, 0.0);
+        let mut padded = vec![0.0f32; w + 2 * radius];
         for y in 0..h {
-            for x in 0..w {
-                let mut acc = 0.0;
-                for (k, &kv) in kernel.iter().enumerate() {
-                    acc += kv * self.at_clamped(x as isize + k as isize - radius, y as isize);
-                }
-                tmp.data[y * w + x] = acc;
+            let row = &self.data[y * w..(y + 1) * w];
+            padded[..radius].fill(row[0]);
+            padded[radius..radius + w].copy_from_slice(row);
+            padded[radius + w..].fill(row[w - 1]);
+            for (x, out) in tmp.data[y * w..(y + 1) * w].iter_mut().enumerate() {
+                *out = padded[x..x + kernel.len()]
+                    .iter()
+                    .zip(&kernel)
+                    .map(|(a, k)| a * k)
+                    .sum();
             }
         }
+        // Columns: accumulate whole rows so the inner loop runs along memory.
         let mut out = Plane::filled(w, h, 0.0);
         for y in 0..h {
-            for x in 0..w {
-                let mut acc = 0.0;
-                for (k, &kv) in kernel.iter().enumerate() {
-                    acc += kv * tmp.at_clamped(x as isize, y as isize + k as isize - radius);
+            let dst = &mut out.data[y * w..(y + 1) * w];
+            for (k, &kv) in kernel.iter().enumerate() {
+                let sy =
+                    (y as isize + k as isize - radius as isize).clamp(0, h as isize - 1) as usize;
+                let src = &tmp.data[sy * w..(sy + 1) * w];
+                for (d, s) in dst.iter_mut().zip(src) {
+                    *d += kv * s;
                 }
-                out.data[y * w + x] = acc;
             }
         }
         out
