@@ -330,12 +330,12 @@ fn distance_1d(s: &mut Scratch, n: usize) {
         z[k + 1] = f64::INFINITY;
     }
     k = 0;
-    for q in 0..n {
+    for (q, o) in out[..n].iter_mut().enumerate() {
         while z[k + 1] < q as f64 {
             k += 1;
         }
         let d = q as f64 - v[k] as f64;
-        out[q] = d * d + f[v[k]];
+        *o = d * d + f[v[k]];
     }
 }
 
