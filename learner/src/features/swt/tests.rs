@@ -108,8 +108,8 @@ fn bar_width_is_measured_at_full_and_half_scale() {
         assert!((half.mean - w as f64).abs() < 1.0, "w={w} 0.5x: {half:?}");
         assert!(full.pixels >= (w as usize) * 280, "w={w}: {full:?}");
         // Every edge of a lone bar is on the contour.
-        for s in 0..SCALES {
-            assert_eq!(stats[s][INNER], WidthStats::default(), "w={w} scale {s}");
+        for (s, per_kind) in stats.iter().enumerate() {
+            assert_eq!(per_kind[INNER], WidthStats::default(), "w={w} scale {s}");
         }
     }
 }
@@ -349,11 +349,11 @@ fn assert_matches_reference(name: &str, p: &Prepared) {
         for kind in [OUTER, INNER] {
             let (f, r) = (fast[kind], slow[kind]);
             let ctx = format!("{name} scale {s} kind {kind}: fast {f:?} reference {r:?}");
-            let tol = 1e-3 * r.0.max(1.0);
+            // f32 against f64 arithmetic; the cell walks agree exactly on these drawings.
+            let tol = 1e-4 * r.0.max(1.0);
             assert!((f.mean - r.0).abs() <= tol, "{ctx}");
             assert!((f.std - r.1).abs() <= tol, "{ctx}");
-            assert!(f.pixels.abs_diff(r.2) * 1000 <= r.2, "{ctx}");
-            assert!(f.rays.abs_diff(r.3) * 1000 <= r.3, "{ctx}");
+            assert_eq!((f.pixels, f.rays), (r.2, r.3), "{ctx}");
         }
     });
 }
