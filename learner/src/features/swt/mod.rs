@@ -1,0 +1,455 @@
+//! Stroke widths (Garces et al. 2014, §5.3 "Strokes") by the Stroke Width Transform of
+//! Epshtein, Ofek & Wexler, "Detecting Text in Natural Scenes with Stroke Width Transform"
+//! (CVPR 2010, §2.1).
+//!
+//! For each of four scales (1x, 0.5x, 0.25x, 0.125x of the 400x400 canvas) and each edge kind
+//! (outer = the silhouette contour, inner = every other edge) we report the mean and standard
+//! deviation of the stroke width: 2 kinds × 2 statistics × 4 scales = 16 features.
+//!
+//! The transform, and the choices made where the papers leave room:
+//! - **Edges and gradients.** At 1x the shared Canny edges and the Sobel gradients of the
+//!   Canny-smoothed grey plane of [`Prepared`]. At the lower scales the grey plane is halved
+//!   repeatedly ([`Plane::half`](crate::plane::Plane::half), 2x2 box average) and Canny rerun
+//!   with [`CannyParams::default`]; Ω and the silhouette are halved with
+//!   [`Mask::half`](crate::mask::Mask::half).
+//! - **Polarity.** Clip art is ink on white paper, so strokes are darker than their surroundings:
+//!   rays run along −∇I (towards darker). The opposite polarity (light strokes on dark) is not
+//!   run: on a white page it would measure the gaps between shapes and the paper around them.
+//!   White details inside dark shapes are still seen, through the dark bands between them.
+//! - **Rays.** From every edge pixel `p` (pixel centres at integer coordinates) a ray is walked
+//!   cell by cell (Amanatides & Woo's grid DDA: every pixel the ray passes through is visited,
+//!   so an 8-connected Canny curve cannot be slipped through diagonally; at an exact corner the
+//!   vertical neighbour is entered first). The walk stops at the first edge pixel `q` not
+//!   8-adjacent to `p` (adjacent edge pixels are `p`'s own curve: Canny staircases would
+//!   otherwise end every diagonal ray at once). The ray is accepted when `q`'s gradient is
+//!   opposite to `p`'s within π/6 (Epshtein: `d_q = −d_p ± π/6`) and every pixel walked lies
+//!   inside the image and inside Ω. Leaving either discards the ray, so a ray is at most
+//!   `width + height` cells long; there is no other length cap (a filled shape is one wide
+//!   stroke, as in Epshtein).
+//! - **Width.** `‖p − q‖`, with `p` and `q` each moved to the sub-pixel maximum of the gradient
+//!   magnitude along its own gradient (parabola through the bilinearly sampled magnitude at ±1
+//!   px, offset clamped to ±½). Canny's non-maximum suppression keeps whichever pixel is on its
+//!   side of a tie, so raw pixel centres are biased by up to 1 px; refined, a bar of `w` pixels
+//!   measures `w`. Widths below about 2 px at a scale (2σ of Canny's smoothing) are
+//!   overestimated; the coarser scales exist to see the wide strokes.
+//! - **Two passes.** First every pixel of an accepted ray takes the minimum width of the rays
+//!   through it; then, ray by ray in raster order of `p`, values above the ray's median (upper
+//!   median of the current values) are lowered to it (Epshtein's corner fix). Updates are in
+//!   place, so later rays see earlier medians; the order is fixed, so results are
+//!   deterministic.
+//! - **Outer and inner.** A ray is *outer* when `p` or `q` lies within 2 px (at that scale) of the
+//!   silhouette contour, i.e. the disk of radius 2 around it holds both silhouette and
+//!   non-silhouette pixels (off-image counts as non-silhouette). Either end, not only `p`: the
+//!   rays cast inward from the far side of an outline belong to the outline. Every other
+//!   accepted ray is *inner*. Each kind has its own SWT map (both passes run per kind), so a
+//!   pixel crossed by both kinds of ray counts in both.
+//! - **Statistics.** Mean and population standard deviation over the pixels of that kind's SWT
+//!   map (Epshtein's transform is a per-pixel map; per-ray statistics would let the few long
+//!   rays along a bar's length dominate). No accepted ray gives 0 and 0, never NaN.
+//! - **Unit.** Widths are converted to canvas (400x400) pixels, i.e. multiplied by 2, 4 and 8 at
+//!   the lower scales, so the four scales are comparable and a 12 px stroke reads ≈ 12 at each
+//!   scale that resolves it.
+//!
+//! Cost: rays start only at edge pixels; the walk, the two passes and the statistics reuse
+//! buffers across the four scales and allocate nothing per pixel or per ray.
+
+use super::{Family, FeatureInfo, Prepared};
+use crate::edges::{self, CannyParams};
+
+#[cfg(test)]
+mod tests;
+
+/// Number of features in this family.
+pub const COUNT: usize = 16;
+
+/// Number of scales (1x, 0.5x, 0.25x, 0.125x).
+const SCALES: usize = 4;
+
+/// `cos(π/6)`: `q`'s gradient must be within π/6 of the opposite of `p`'s.
+const OPPOSITE_COS: f32 = 0.866_025_4;
+
+/// Radius in pixels (at each scale) within which a ray end counts as on the silhouette contour.
+const CONTOUR_RADIUS: isize = 2;
+
+macro_rules! feature {
+    ($kind:literal, $stat:literal, $scale:literal, $kind_doc:literal, $stat_doc:literal) => {
+        FeatureInfo {
+            name: concat!("stroke_", $kind, "_width_", $stat, "_", $scale),
+            family: Family::Stroke,
+            doc: concat!(
+                $stat_doc,
+                " stroke width (canvas px) over SWT pixels of rays touching ",
+                $kind_doc,
+                ", at ",
+                $scale,
+                " scale (§5.3 Strokes; Epshtein et al. 2010)."
+            ),
+        }
+    };
+}
+
+const FEATURES: [FeatureInfo; COUNT] = [
+    feature!("outer", "mean", "1x", "the silhouette contour", "Mean"),
+    feature!("outer", "mean", "0_5x", "the silhouette contour", "Mean"),
+    feature!("outer", "mean", "0_25x", "the silhouette contour", "Mean"),
+    feature!("outer", "mean", "0_125x", "the silhouette contour", "Mean"),
+    feature!(
+        "outer",
+        "std",
+        "1x",
+        "the silhouette contour",
+        "Std. dev. of"
+    ),
+    feature!(
+        "outer",
+        "std",
+        "0_5x",
+        "the silhouette contour",
+        "Std. dev. of"
+    ),
+    feature!(
+        "outer",
+        "std",
+        "0_25x",
+        "the silhouette contour",
+        "Std. dev. of"
+    ),
+    feature!(
+        "outer",
+        "std",
+        "0_125x",
+        "the silhouette contour",
+        "Std. dev. of"
+    ),
+    feature!("inner", "mean", "1x", "only inner edges", "Mean"),
+    feature!("inner", "mean", "0_5x", "only inner edges", "Mean"),
+    feature!("inner", "mean", "0_25x", "only inner edges", "Mean"),
+    feature!("inner", "mean", "0_125x", "only inner edges", "Mean"),
+    feature!("inner", "std", "1x", "only inner edges", "Std. dev. of"),
+    feature!("inner", "std", "0_5x", "only inner edges", "Std. dev. of"),
+    feature!("inner", "std", "0_25x", "only inner edges", "Std. dev. of"),
+    feature!("inner", "std", "0_125x", "only inner edges", "Std. dev. of"),
+];
+
+/// Names and docs, in output order: outer mean, outer std, inner mean, inner std, each at
+/// 1x, 0.5x, 0.25x, 0.125x.
+pub fn catalogue() -> Vec<FeatureInfo> {
+    FEATURES.to_vec()
+}
+
+/// Writes this family's features of `p` into `out` (length [`COUNT`]).
+pub fn compute(p: &Prepared, out: &mut [f64]) {
+    debug_assert_eq!(out.len(), COUNT);
+    let mut ws = Workspace::default();
+    let mut stats = [[WidthStats::default(); 2]; SCALES];
+    for_each_scale(p, |s, input| stats[s] = ws.measure(input));
+    let mut values = [0.0; COUNT];
+    for (s, per_kind) in stats.iter().enumerate() {
+        for (k, st) in per_kind.iter().enumerate() {
+            values[k * 2 * SCALES + s] = st.mean;
+            values[k * 2 * SCALES + SCALES + s] = st.std;
+        }
+    }
+    for (o, v) in out.iter_mut().zip(values) {
+        *o = v;
+    }
+}
+
+/// One scale's inputs, borrowed.
+#[derive(Debug, Clone, Copy)]
+struct ScaleInput<'a> {
+    width: usize,
+    height: usize,
+    /// Canny edges at this scale.
+    edges: &'a [bool],
+    /// Gradients of the Canny-smoothed grey plane at this scale.
+    dx: &'a [f32],
+    dy: &'a [f32],
+    /// Ω at this scale.
+    region: &'a [bool],
+    /// The silhouette at this scale.
+    silhouette: &'a [bool],
+    /// Canvas pixels per pixel at this scale (1, 2, 4, 8).
+    unit: f64,
+}
+
+impl ScaleInput<'_> {
+    /// The gradient magnitude at pixel index `i`.
+    #[inline]
+    fn magnitude(&self, i: usize) -> f32 {
+        (self.dx[i] * self.dx[i] + self.dy[i] * self.dy[i]).sqrt()
+    }
+
+    /// The gradient magnitude bilinearly interpolated at `(x, y)`, coordinates clamped.
+    fn magnitude_at(&self, x: f32, y: f32) -> f32 {
+        let x = x.clamp(0.0, (self.width - 1) as f32);
+        let y = y.clamp(0.0, (self.height - 1) as f32);
+        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
+        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+        let w = self.width;
+        let top = self.magnitude(y0 * w + x0) * (1.0 - fx) + self.magnitude(y0 * w + x1) * fx;
+        let bottom = self.magnitude(y1 * w + x0) * (1.0 - fx) + self.magnitude(y1 * w + x1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+
+    /// The sub-pixel edge position of pixel `i`: its centre moved along its gradient to the
+    /// vertex of the parabola through the magnitude at −1, 0, +1 px (offset clamped to ±½).
+    fn refined(&self, i: usize) -> (f32, f32) {
+        let (x, y) = ((i % self.width) as f32, (i / self.width) as f32);
+        let m0 = self.magnitude(i);
+        if !(m0 > 0.0 && m0.is_finite()) {
+            return (x, y);
+        }
+        let (nx, ny) = (self.dx[i] / m0, self.dy[i] / m0);
+        let behind = self.magnitude_at(x - nx, y - ny);
+        let ahead = self.magnitude_at(x + nx, y + ny);
+        let curvature = behind - 2.0 * m0 + ahead;
+        let offset = if curvature < 0.0 {
+            (0.5 * (behind - ahead) / curvature).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        };
+        (x + offset * nx, y + offset * ny)
+    }
+
+    /// Whether the disk of radius [`CONTOUR_RADIUS`] around `i` holds both silhouette and
+    /// non-silhouette pixels (off-image counts as non-silhouette).
+    fn near_contour(&self, i: usize) -> bool {
+        let (x, y) = ((i % self.width) as isize, (i / self.width) as isize);
+        let (mut inside, mut outside) = (false, false);
+        for oy in -CONTOUR_RADIUS..=CONTOUR_RADIUS {
+            for ox in -CONTOUR_RADIUS..=CONTOUR_RADIUS {
+                if ox * ox + oy * oy > CONTOUR_RADIUS * CONTOUR_RADIUS {
+                    continue;
+                }
+                let (nx, ny) = (x + ox, y + oy);
+                let set = nx >= 0
+                    && ny >= 0
+                    && (nx as usize) < self.width
+                    && (ny as usize) < self.height
+                    && self.silhouette[ny as usize * self.width + nx as usize];
+                inside |= set;
+                outside |= !set;
+                if inside && outside {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+}
+
+/// Builds the four scales and calls `f(scale_index, input)` on each, finest first. Stops early
+/// (leaving the rest unvisited) if a scale would be under 3x3 pixels.
+fn for_each_scale(p: &Prepared, mut f: impl FnMut(usize, &ScaleInput)) {
+    f(
+        0,
+        &ScaleInput {
+            width: p.grey.width,
+            height: p.grey.height,
+            edges: &p.edges.data,
+            dx: &p.smoothed_gradients.dx.data,
+            dy: &p.smoothed_gradients.dy.data,
+            region: &p.region.data,
+            silhouette: &p.silhouette.data,
+            unit: 1.0,
+        },
+    );
+    let mut grey = p.grey.half();
+    let mut region = p.region.half();
+    let mut silhouette = p.silhouette.half();
+    for s in 1..SCALES {
+        if grey.width < 3 || grey.height < 3 {
+            return;
+        }
+        let (edges, grad) = edges::canny(&grey, &CannyParams::default());
+        f(
+            s,
+            &ScaleInput {
+                width: grey.width,
+                height: grey.height,
+                edges: &edges.data,
+                dx: &grad.dx.data,
+                dy: &grad.dy.data,
+                region: &region.data,
+                silhouette: &silhouette.data,
+                unit: (1u32 << s) as f64,
+            },
+        );
+        if s + 1 < SCALES {
+            grey = grey.half();
+            region = region.half();
+            silhouette = silhouette.half();
+        }
+    }
+}
+
+/// Edge kind index: outer (silhouette contour) rays.
+const OUTER: usize = 0;
+/// Edge kind index: inner rays.
+const INNER: usize = 1;
+
+/// Mean and standard deviation of one kind's SWT map, in canvas pixels.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct WidthStats {
+    mean: f64,
+    std: f64,
+    /// Number of SWT pixels.
+    pixels: usize,
+    /// Number of accepted rays.
+    rays: usize,
+}
+
+/// An accepted ray: its pixels are `Workspace::pixels[start..end]`.
+#[derive(Debug, Clone, Copy)]
+struct Ray {
+    start: u32,
+    end: u32,
+    kind: u8,
+}
+
+/// Buffers reused across scales.
+#[derive(Debug, Default)]
+struct Workspace {
+    /// One SWT map per kind; `INFINITY` = no ray. All `INFINITY` between calls of `measure`.
+    maps: [Vec<f32>; 2],
+    /// Accepted rays, in raster order of their start pixel.
+    rays: Vec<Ray>,
+    /// Pixel indices of the accepted rays, concatenated (each ray from `p` to `q` inclusive).
+    pixels: Vec<u32>,
+    /// Median scratch.
+    scratch: Vec<f32>,
+}
+
+impl Workspace {
+    /// The SWT of one scale, summarised per kind ([`OUTER`], [`INNER`]).
+    fn measure(&mut self, input: &ScaleInput) -> [WidthStats; 2] {
+        let n = input.width * input.height;
+        for map in &mut self.maps {
+            if map.len() < n {
+                map.resize(n, f32::INFINITY);
+            }
+        }
+        self.rays.clear();
+        self.pixels.clear();
+        // Pass 1: cast, keep accepted rays, minimum width per pixel.
+        for i in 0..n {
+            if !input.edges[i] {
+                continue;
+            }
+            let start = self.pixels.len();
+            let Some(q) = cast_ray(input, i, &mut self.pixels) else {
+                self.pixels.truncate(start);
+                continue;
+            };
+            let (px, py) = input.refined(i);
+            let (qx, qy) = input.refined(q);
+            let width = (px - qx).hypot(py - qy);
+            let kind = if input.near_contour(i) || input.near_contour(q) {
+                OUTER
+            } else {
+                INNER
+            };
+            let map = &mut self.maps[kind];
+            for &j in &self.pixels[start..] {
+                let v = &mut map[j as usize];
+                *v = v.min(width);
+            }
+            self.rays.push(Ray {
+                start: start as u32,
+                end: self.pixels.len() as u32,
+                kind: kind as u8,
+            });
+        }
+        // Pass 2: cap each ray at its median.
+        for ray in &self.rays {
+            let map = &mut self.maps[ray.kind as usize];
+            let ray_pixels = &self.pixels[ray.start as usize..ray.end as usize];
+            self.scratch.clear();
+            self.scratch
+                .extend(ray_pixels.iter().map(|&j| map[j as usize]));
+            let mid = self.scratch.len() / 2;
+            let (_, &mut median, _) = self.scratch.select_nth_unstable_by(mid, f32::total_cmp);
+            for &j in ray_pixels {
+                let v = &mut map[j as usize];
+                *v = v.min(median);
+            }
+        }
+        // Statistics over each map's pixels, resetting them to INFINITY as they are counted.
+        let mut acc = [(0usize, 0.0f64, 0.0f64, 0usize); 2];
+        for ray in &self.rays {
+            let kind = ray.kind as usize;
+            let map = &mut self.maps[kind];
+            let a = &mut acc[kind];
+            a.3 += 1;
+            for &j in &self.pixels[ray.start as usize..ray.end as usize] {
+                let v = std::mem::replace(&mut map[j as usize], f32::INFINITY);
+                if v.is_finite() {
+                    let v = v as f64 * input.unit;
+                    a.0 += 1;
+                    a.1 += v;
+                    a.2 += v * v;
+                }
+            }
+        }
+        acc.map(|(count, sum, sum_sq, rays)| {
+            if count == 0 {
+                return WidthStats::default();
+            }
+            let mean = sum / count as f64;
+            let var = (sum_sq / count as f64 - mean * mean).max(0.0);
+            WidthStats {
+                mean,
+                std: var.sqrt(),
+                pixels: count,
+                rays,
+            }
+        })
+    }
+}
+
+/// Walks the ray from edge pixel `i` along −∇I, pushing every pixel it passes through (from `i`
+/// to `q` inclusive) onto `pixels`. Returns `q` if the ray is accepted; on rejection the caller
+/// truncates `pixels`.
+fn cast_ray(input: &ScaleInput, i: usize, pixels: &mut Vec<u32>) -> Option<usize> {
+    let (w, h) = (input.width, input.height);
+    let (gx, gy) = (input.dx[i], input.dy[i]);
+    let g = (gx * gx + gy * gy).sqrt();
+    if !(g > 0.0 && g.is_finite()) {
+        return None;
+    }
+    let (ux, uy) = (-gx / g, -gy / g);
+    let (x0, y0) = ((i % w) as isize, (i / w) as isize);
+    let (mut x, mut y) = (x0, y0);
+    let step_x: isize = if ux > 0.0 { 1 } else { -1 };
+    let step_y: isize = if uy > 0.0 { 1 } else { -1 };
+    let delta_x = 1.0 / ux.abs(); // INFINITY when ux == 0
+    let delta_y = 1.0 / uy.abs();
+    let (mut next_x, mut next_y) = (0.5 * delta_x, 0.5 * delta_y);
+    pixels.push(i as u32);
+    // A 4-connected walk inside the image visits at most w + h cells.
+    for _ in 0..w + h {
+        if next_x < next_y {
+            x += step_x;
+            next_x += delta_x;
+        } else {
+            y += step_y;
+            next_y += delta_y;
+        }
+        if x < 0 || y < 0 || x as usize >= w || y as usize >= h {
+            return None;
+        }
+        let j = y as usize * w + x as usize;
+        if !input.region[j] {
+            return None;
+        }
+        pixels.push(j as u32);
+        if input.edges[j] && ((x - x0).abs() > 1 || (y - y0).abs() > 1) {
+            let (qx, qy) = (input.dx[j], input.dy[j]);
+            let gq = (qx * qx + qy * qy).sqrt();
+            return (gx * qx + gy * qy < -OPPOSITE_COS * g * gq).then_some(j);
+        }
+    }
+    None
+}
