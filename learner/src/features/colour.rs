@@ -720,6 +720,62 @@ mod tests {
         assert_eq!(entropy_bits(&[0, 0], 0), 0.0);
     }
 
+    /// Renderings checked against `tests/data/colour/reference.py` (style, concept).
+    const REFERENCE_ICONS: [(&str, &str); 3] = [
+        ("fluent-emoji", "fire"),
+        ("twemoji", "banana"),
+        ("emojione-monotone", "cat-face"),
+    ];
+
+    fn data_dir() -> std::path::PathBuf {
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/colour")
+    }
+
+    #[test]
+    #[ignore = "regenerates tests/data/colour/*.png from the fixtures; run by hand, then rerun reference.py"]
+    fn write_reference_renderings() {
+        let fixtures = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/style");
+        for (style, concept) in REFERENCE_ICONS {
+            let svg = std::fs::read(fixtures.join(style).join(format!("{concept}.svg")))
+                .expect("fixture exists");
+            let img = crate::render::render_svg(&svg).expect("fixture renders");
+            img.save(data_dir().join(format!("{style}__{concept}.png")))
+                .expect("PNG written");
+        }
+    }
+
+    #[test]
+    fn matches_independent_python_reference() {
+        // Values computed by reference.py with scikit-image/scipy/numpy from the committed
+        // renderings (provenance in the JSON); no Python needed here.
+        let text = std::fs::read_to_string(data_dir().join("reference.json")).expect("JSON");
+        let json: serde_json::Value = serde_json::from_str(&text).expect("valid JSON");
+        let icons = json["icons"].as_array().expect("icons array");
+        assert_eq!(icons.len(), REFERENCE_ICONS.len());
+        for icon in icons {
+            let file = icon["file"].as_str().expect("file");
+            let img = image::open(data_dir().join(file)).expect("PNG").to_rgb8();
+            let p = Prepared::new(img).expect("400x400 drawing");
+            assert_eq!(
+                p.region.count() as u64,
+                icon["omega_count"].as_u64().expect("omega_count"),
+                "{file}: Ω differs from the reference's own Ω"
+            );
+            let f = features(&p);
+            for (key, index) in [
+                ("saturation_mean", SAT_MEAN),
+                ("saturation_std", SAT_STD),
+                ("luminance_entropy", LUM_ENTROPY),
+                ("hasler_colourfulness", HASLER),
+                ("hue_std", HUE_STD),
+            ] {
+                let expected = icon[key].as_f64().expect("number");
+                let rel = (f[index] - expected).abs() / expected.abs().max(1e-12);
+                assert!(rel < 1e-6, "{file} {key}: {} vs {expected}", f[index]);
+            }
+        }
+    }
+
     #[test]
     fn integer_std_is_exact() {
         // Values 1, 3 → population std 1.
