@@ -37,8 +37,9 @@
 //!   al.'s α) times the largest bin; the mode frequency is the largest bin as a fraction of
 //!   |Ω| (not of the chromatic pixels, so a single red dot in a grey drawing scores near 0).
 //!
-//! The whole family is one pass over Ω with fixed-size histograms; hue cosines and sines come
-//! from a table built once per process, so no trigonometry runs per pixel.
+//! The whole family is one pass over Ω with fixed-size histograms; runs of identical pixels
+//! (flat fills) are accumulated once with their length as weight, and hue cosines and sines
+//! come from a table built once per process, so no trigonometry runs per pixel.
 
 use std::f64::consts::{PI, TAU};
 use std::sync::OnceLock;
@@ -253,6 +254,108 @@ impl FloatSums {
     }
 }
 
+/// Integer statistics of the pixels of Ω, accumulated exactly.
+#[derive(Debug, Clone)]
+struct Accumulator {
+    /// The (cos, sin) table of [`hue_table`].
+    table: &'static [(f64, f64)],
+    /// |Ω|.
+    n: u64,
+    luma_hist: [u32; LUMA_BINS],
+    rgb_hist: [u32; RGB_BINS],
+    fine_hist: [u32; FINE_RGB_BINS],
+    hue_hist: [u32; HUE_BINS],
+    /// Pixels with S ≥ 0.1 (their hue vectors are summed in [`FloatSums`]).
+    n_chromatic: u64,
+    /// Hasler–Süsstrunk sums of rg = R − G and 2·yb = R + G − 2B on 0–255.
+    rg_sum: i64,
+    rg_sq: u64,
+    yb2_sum: i64,
+    yb2_sq: u64,
+    /// Σ (max − min), for eq. 5.1.
+    chroma_sum: u64,
+    black: u64,
+}
+
+impl Default for Accumulator {
+    fn default() -> Self {
+        Self {
+            table: &[],
+            n: 0,
+            luma_hist: [0; LUMA_BINS],
+            rgb_hist: [0; RGB_BINS],
+            fine_hist: [0; FINE_RGB_BINS],
+            hue_hist: [0; HUE_BINS],
+            n_chromatic: 0,
+            rg_sum: 0,
+            rg_sq: 0,
+            yb2_sum: 0,
+            yb2_sq: 0,
+            chroma_sum: 0,
+            black: 0,
+        }
+    }
+}
+
+impl Accumulator {
+    /// Adds `k` pixels of colour `px` and luma `lum`; float sums go to the row's `row`.
+    #[inline]
+    fn add(&mut self, row: &mut FloatSums, px: [u8; 3], lum: f32, k: u32) {
+        let (r, g, b) = (px[0] as u32, px[1] as u32, px[2] as u32);
+        let max = r.max(g).max(b);
+        let min = r.min(g).min(b);
+        let d = max - min;
+        let (k64, kf) = (k as u64, k as f64);
+        self.n += k64;
+
+        let l = lum as f64;
+        row.lum += kf * l;
+        row.lum_sq += kf * l * l;
+        self.luma_hist[((299 * r + 587 * g + 114 * b + 500) / 1000) as usize] += k;
+        self.rgb_hist[((r >> 5) << 6 | (g >> 5) << 3 | (b >> 5)) as usize] += k;
+        self.fine_hist[((r >> 4) << 8 | (g >> 4) << 4 | (b >> 4)) as usize] += k;
+
+        let rg = r as i64 - g as i64;
+        let yb2 = r as i64 + g as i64 - 2 * b as i64;
+        self.rg_sum += k as i64 * rg;
+        self.rg_sq += k64 * (rg * rg) as u64;
+        self.yb2_sum += k as i64 * yb2;
+        self.yb2_sq += k64 * (yb2 * yb2) as u64;
+        self.chroma_sum += k64 * d as u64;
+        if max <= BLACK_MAX_CHANNEL as u32 {
+            self.black += k64;
+        }
+
+        if d == 0 {
+            return; // grey: saturation 0, no hue
+        }
+        let s = d as f64 / max as f64;
+        row.sat += kf * s;
+        row.sat_sq += kf * s * s;
+        if 10 * d < max {
+            return; // S < 0.1: hue unreliable
+        }
+        // HSV hue = (2·sector + x/d) / 6 turns, x ∈ [−d, d]; same sector rules as rgb2hsv
+        // (ties give the same hue from either sector).
+        let (sector, x) = if max == r {
+            (0usize, g as i32 - b as i32)
+        } else if max == g {
+            (1, b as i32 - r as i32)
+        } else {
+            (2, r as i32 - g as i32)
+        };
+        let (c, sn) = self
+            .table
+            .get(hue_table_index(d, x.unsigned_abs()))
+            .copied()
+            .unwrap_or((1.0, 0.0)); // unreachable: d ≤ 255 and |x| ≤ d
+        row.hue_cos[sector] += kf * c;
+        row.hue_sin[sector] += kf * if x < 0 { -sn } else { sn };
+        self.n_chromatic += k64;
+        self.hue_hist[hue_bin(sector, x, d)] += k;
+    }
+}
+
 /// Writes this family's features of `p` into `out` (length [`COUNT`]), in [`catalogue`] order.
 pub fn compute(p: &Prepared, out: &mut [f64]) {
     out.fill(0.0);
@@ -263,24 +366,11 @@ pub fn compute(p: &Prepared, out: &mut [f64]) {
         // Inconsistent input (not produced by `Prepared::new`): zeros rather than a panic.
         return;
     }
-    let table = hue_table();
-
-    let mut n: u64 = 0;
+    let mut acc = Accumulator {
+        table: hue_table(),
+        ..Accumulator::default()
+    };
     let mut sums = FloatSums::default();
-    let mut luma_hist = [0u32; LUMA_BINS];
-    let mut rgb_hist = [0u32; RGB_BINS];
-    let mut fine_hist = [0u32; FINE_RGB_BINS];
-    let mut hue_hist = [0u32; HUE_BINS];
-    // Chromatic pixels; their unit hue vectors (in `sums`) are kept per base sector (R, G, B
-    // max) in the sector's own frame and rotated by 0°, 120°, 240° at the end.
-    let mut n_chromatic: u64 = 0;
-    // Exact integer sums for Hasler–Süsstrunk (yb doubled to stay integral) and eq. 5.1.
-    let mut rg_sum: i64 = 0;
-    let mut rg_sq: u64 = 0;
-    let mut yb2_sum: i64 = 0;
-    let mut yb2_sq: u64 = 0;
-    let mut chroma_sum: u64 = 0;
-    let mut black: u64 = 0;
 
     let w = p.region.width.max(1);
     for ((row_px, row_in), row_grey) in raw
@@ -295,60 +385,46 @@ pub fn compute(p: &Prepared, out: &mut [f64]) {
         // rounding error of 160k naive additions would otherwise be amplified by the square
         // root of the circular std into ~1e-7 turns for a single flat hue.
         let mut row = FloatSums::default();
+        // Clip art is mostly flat fills, so identical pixels are counted as runs and each run
+        // is accumulated once with its length as weight. The statistics are order-free, so a
+        // run may continue across pixels outside Ω (which are skipped).
+        let mut run_px = [0u8; 3];
+        let mut run_lum = 0.0f32;
+        let mut run_len = 0u32;
         for ((px, &inside), &lum) in row_px.chunks_exact(3).zip(row_in).zip(row_grey) {
             if !inside {
                 continue;
             }
-            n += 1;
-            let (r, g, b) = (px[0] as u32, px[1] as u32, px[2] as u32);
-            let max = r.max(g).max(b);
-            let min = r.min(g).min(b);
-            let d = max - min;
-
-            let l = lum as f64;
-            row.lum += l;
-            row.lum_sq += l * l;
-            luma_hist[((299 * r + 587 * g + 114 * b + 500) / 1000) as usize] += 1;
-            rgb_hist[((r >> 5) << 6 | (g >> 5) << 3 | (b >> 5)) as usize] += 1;
-            fine_hist[((r >> 4) << 8 | (g >> 4) << 4 | (b >> 4)) as usize] += 1;
-
-            let rg = r as i64 - g as i64;
-            let yb2 = r as i64 + g as i64 - 2 * b as i64;
-            rg_sum += rg;
-            rg_sq += (rg * rg) as u64;
-            yb2_sum += yb2;
-            yb2_sq += (yb2 * yb2) as u64;
-            chroma_sum += d as u64;
-            if max <= BLACK_MAX_CHANNEL as u32 {
-                black += 1;
+            let px = [px[0], px[1], px[2]];
+            if run_len > 0 && px == run_px {
+                run_len += 1;
+                continue;
             }
-
-            if d == 0 {
-                continue; // grey: saturation 0, no hue
+            if run_len > 0 {
+                acc.add(&mut row, run_px, run_lum, run_len);
             }
-            let s = d as f64 / max as f64;
-            row.sat += s;
-            row.sat_sq += s * s;
-            if 10 * d < max {
-                continue; // S < 0.1: hue unreliable
-            }
-            // HSV hue = (base + x/d) / 6 turns, x ∈ [−d, d]; same sector rules as rgb2hsv (ties
-            // give the same hue from either sector).
-            let (sector, x) = if max == r {
-                (0usize, g as i32 - b as i32)
-            } else if max == g {
-                (1, b as i32 - r as i32)
-            } else {
-                (2, r as i32 - g as i32)
-            };
-            let (c, sn) = table[hue_table_index(d, x.unsigned_abs())];
-            row.hue_cos[sector] += c;
-            row.hue_sin[sector] += if x < 0 { -sn } else { sn };
-            n_chromatic += 1;
-            hue_hist[hue_bin(sector, x, d)] += 1;
+            (run_px, run_lum, run_len) = (px, lum, 1);
+        }
+        if run_len > 0 {
+            acc.add(&mut row, run_px, run_lum, run_len);
         }
         sums.add(&row);
     }
+    let Accumulator {
+        n,
+        luma_hist,
+        rgb_hist,
+        fine_hist,
+        hue_hist,
+        n_chromatic,
+        rg_sum,
+        rg_sq,
+        yb2_sum,
+        yb2_sq,
+        chroma_sum,
+        black,
+        ..
+    } = acc;
 
     if n == 0 {
         return;

@@ -117,24 +117,59 @@ fn bin_of(value: f32, top: f32) -> usize {
     ((value * (BINS as f32 / top)) as usize).min(BINS - 1)
 }
 
-/// Squared colour-gradient magnitude at `x` of a row, in integer Sobel units (divide the
-/// square root by `8 · 255` for the per-pixel derivative on `[0, 1]`). `above`, `row`, `below`
-/// are the RGB rows `y − 1`, `y`, `y + 1` (already clamped at the border); `xm`, `xp` are the
-/// clamped pixel columns either side.
-#[inline]
-fn squared_gradient(above: &[u8], row: &[u8], below: &[u8], x: usize, xm: usize, xp: usize) -> i32 {
-    let mut m2 = 0;
-    for c in 0..3 {
-        let (l, cc, r) = (3 * xm + c, 3 * x + c, 3 * xp + c);
-        let v = |s: &[u8], i: usize| s[i] as i32;
-        let gx =
-            (v(above, r) - v(above, l)) + 2 * (v(row, r) - v(row, l)) + (v(below, r) - v(below, l));
-        let gy = (v(below, l) - v(above, l))
-            + 2 * (v(below, cc) - v(above, cc))
-            + (v(below, r) - v(above, r));
-        m2 += gx * gx + gy * gy;
+/// Squared colour-gradient magnitudes of one image row in integer Sobel units, written to
+/// `m2` (length `w`). The Sobel kernel is separated: `sv` holds the vertical 1-2-1 smoothing
+/// and `dv` the vertical difference of every channel sample, so the horizontal passes run over
+/// contiguous, interleaved RGB samples (`±3` is one pixel) and vectorise. `q` is scratch.
+fn row_squared_gradients(
+    above: &[u8],
+    row: &[u8],
+    below: &[u8],
+    sv: &mut [i32],
+    dv: &mut [i32],
+    q: &mut [i32],
+    m2: &mut [i32],
+) {
+    let len = row.len();
+    // Zipped slices instead of indexing: no bounds checks, so both passes vectorise.
+    for ((((s, d), &a), &c), &b) in sv
+        .iter_mut()
+        .zip(dv.iter_mut())
+        .zip(above)
+        .zip(row)
+        .zip(below)
+    {
+        let (a, c, b) = (a as i32, c as i32, b as i32);
+        *s = a + 2 * c + b;
+        *d = b - a;
     }
-    m2
+    if len <= 3 {
+        // One pixel wide: replicate borders make every derivative 0 except vertical ones.
+        for (q, &d) in q.iter_mut().zip(dv.iter()) {
+            *q = 16 * d * d;
+        }
+    } else {
+        let interior = q[3..len - 3]
+            .iter_mut()
+            .zip(sv[6..].iter().zip(&sv[..len - 6]))
+            .zip(dv[..len - 6].iter().zip(&dv[3..len - 3]).zip(&dv[6..]));
+        for ((q, (&s_right, &s_left)), ((&d_left, &d_mid), &d_right)) in interior {
+            let gx = s_right - s_left;
+            let gy = d_left + 2 * d_mid + d_right;
+            *q = gx * gx + gy * gy;
+        }
+        // Replicate border: the missing neighbour is the pixel itself.
+        for i in (0..3).chain(len - 3..len) {
+            let l = if i >= 3 { i - 3 } else { i };
+            let r = if i + 3 < len { i + 3 } else { i };
+            let gx = sv[r] - sv[l];
+            let gy = dv[l] + 2 * dv[i] + dv[r];
+            q[i] = gx * gx + gy * gy;
+        }
+    }
+    for (m, t) in m2.iter_mut().zip(q.chunks_exact(3)) {
+        *m = t[0] + t[1] + t[2];
+    }
 }
 
 /// Fills the colour (eq. 5.3, on Φ) and black-pixel gradient histograms of `image` over
@@ -148,6 +183,11 @@ fn gradient_histograms(image: &RgbImage, region: &Mask, colour: &mut [f64], blac
     }
     let raw = image.as_raw();
     let stride = 3 * w;
+    // Row scratch, allocated once per image.
+    let mut sv = vec![0i32; stride];
+    let mut dv = vec![0i32; stride];
+    let mut q = vec![0i32; stride];
+    let mut m2 = vec![0i32; w];
     let mut colour_hist = [0u32; BINS];
     let mut black_hist = [0u32; BINS];
     let mut n: u32 = 0;
@@ -157,14 +197,21 @@ fn gradient_histograms(image: &RgbImage, region: &Mask, colour: &mut [f64], blac
             continue;
         }
         let (ym, yp) = (y.saturating_sub(1), (y + 1).min(h - 1));
-        let above = &raw[ym * stride..][..stride];
         let row = &raw[y * stride..][..stride];
-        let below = &raw[yp * stride..][..stride];
-        for (x, _) in inside.iter().enumerate().filter(|(_, b)| **b) {
+        row_squared_gradients(
+            &raw[ym * stride..][..stride],
+            row,
+            &raw[yp * stride..][..stride],
+            &mut sv,
+            &mut dv,
+            &mut q,
+            &mut m2,
+        );
+        for ((&ins, &m2), px) in inside.iter().zip(&m2).zip(row.chunks_exact(3)) {
+            if !ins {
+                continue;
+            }
             n += 1;
-            let (xm, xp) = (x.saturating_sub(1), (x + 1).min(w - 1));
-            let m2 = squared_gradient(above, row, below, x, xm, xp);
-            let px = &row[3 * x..3 * x + 3];
             let is_black = px.iter().all(|&c| c <= BLACK_MAX_CHANNEL);
             if is_black {
                 let m = (m2 as f32).sqrt() * INTEGER_SCALE;
@@ -357,42 +404,52 @@ mod tests {
 
     #[test]
     fn integer_sobel_matches_edges_sobel() {
-        let img = RgbImage::from_fn(37, 23, |x, y| {
-            let v = x.wrapping_mul(2654435761) ^ y.wrapping_mul(40503).rotate_left(7);
-            Rgb([(v >> 3) as u8, (v >> 11) as u8, (v >> 19) as u8])
-        });
-        let grads: Vec<_> = (0..3)
-            .map(|c| {
-                edges::sobel(&Plane {
-                    width: 37,
-                    height: 23,
-                    data: img.pixels().map(|p| p[c] as f32 / 255.0).collect(),
+        // Includes 1- and 2-pixel-wide images for the replicate borders of the row passes.
+        for (w, h) in [(37usize, 23usize), (1, 5), (2, 4), (3, 1)] {
+            let img = RgbImage::from_fn(w as u32, h as u32, |x, y| {
+                let v = x.wrapping_mul(2654435761) ^ y.wrapping_mul(40503).rotate_left(7);
+                Rgb([(v >> 3) as u8, (v >> 11) as u8, (v >> 19) as u8])
+            });
+            let grads: Vec<_> = (0..3)
+                .map(|c| {
+                    edges::sobel(&Plane {
+                        width: w,
+                        height: h,
+                        data: img.pixels().map(|p| p[c] as f32 / 255.0).collect(),
+                    })
                 })
-            })
-            .collect();
-        let raw = img.as_raw();
-        let stride = 3 * 37;
-        for y in 0..23usize {
-            let (ym, yp) = (y.saturating_sub(1), (y + 1).min(22));
-            for x in 0..37usize {
-                let m2 = squared_gradient(
+                .collect();
+            let raw = img.as_raw();
+            let stride = 3 * w;
+            let (mut sv, mut dv, mut q, mut m2) = (
+                vec![0; stride],
+                vec![0; stride],
+                vec![0; stride],
+                vec![0; w],
+            );
+            for y in 0..h {
+                let (ym, yp) = (y.saturating_sub(1), (y + 1).min(h - 1));
+                row_squared_gradients(
                     &raw[ym * stride..][..stride],
                     &raw[y * stride..][..stride],
                     &raw[yp * stride..][..stride],
-                    x,
-                    x.saturating_sub(1),
-                    (x + 1).min(36),
+                    &mut sv,
+                    &mut dv,
+                    &mut q,
+                    &mut m2,
                 );
-                let ours = (m2 as f32).sqrt() * INTEGER_SCALE;
-                let theirs = grads
-                    .iter()
-                    .map(|g| g.magnitude(y * 37 + x).powi(2))
-                    .sum::<f32>()
-                    .sqrt();
-                assert!(
-                    (ours - theirs).abs() < 1e-5,
-                    "({x},{y}): {ours} vs {theirs}"
-                );
+                for (x, &m2) in m2.iter().enumerate() {
+                    let ours = (m2 as f32).sqrt() * INTEGER_SCALE;
+                    let theirs = grads
+                        .iter()
+                        .map(|g| g.magnitude(y * w + x).powi(2))
+                        .sum::<f32>()
+                        .sqrt();
+                    assert!(
+                        (ours - theirs).abs() < 1e-5,
+                        "{w}x{h} ({x},{y}): {ours} vs {theirs}"
+                    );
+                }
             }
         }
     }
