@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::OnceLock;
+use std::sync::Mutex;
 
 /// The workspace root (the parent of this crate's folder).
 pub fn workspace_root() -> PathBuf {
@@ -18,34 +18,37 @@ pub fn fixture(relative: &str) -> PathBuf {
     workspace_root().join("fixtures").join(relative)
 }
 
-/// The path of a workspace binary built in the same profile as this test, building it once if
-/// the test runner did not (e.g. when only this crate's tests were selected).
+/// The path of a workspace binary built in the same profile as this test. The first call in a
+/// test process runs `cargo build` for it (a no-op when it is up to date), so a test never runs
+/// a stale binary when only this crate's tests were selected.
 pub fn binary(package: &str, name: &str) -> PathBuf {
-    static BUILT: OnceLock<()> = OnceLock::new();
+    static BUILT: Mutex<Vec<String>> = Mutex::new(Vec::new());
     // target/<profile>/deps/<test-exe> → target/<profile>/<name>
     let exe = std::env::current_exe().expect("test executable path");
     let profile_dir = exe
         .parent()
         .and_then(Path::parent)
         .expect("test executable in target/<profile>/deps");
-    let path = profile_dir.join(name);
-    BUILT.get_or_init(|| {
-        if !path.exists() {
-            let profile = profile_dir
-                .file_name()
-                .and_then(|p| p.to_str())
-                .unwrap_or("debug");
-            let mut cmd = Command::new(env!("CARGO"));
-            cmd.args(["build", "-p", package, "--bin", name])
-                .current_dir(workspace_root());
-            if profile != "debug" {
-                cmd.args(["--profile", profile]);
-            }
-            let status = cmd.status().expect("run cargo build");
-            assert!(status.success(), "cargo build -p {package} failed");
+    let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+    if !built.iter().any(|b| b == name) {
+        let profile = profile_dir
+            .file_name()
+            .and_then(|p| p.to_str())
+            .unwrap_or("debug");
+        let mut cmd = Command::new(env!("CARGO"));
+        cmd.args(["build", "--quiet", "-p", package, "--bin", name])
+            .current_dir(workspace_root());
+        if profile != "debug" {
+            cmd.args(["--profile", profile]);
         }
-    });
-    path
+        let status = cmd.status().expect("run cargo build");
+        assert!(
+            status.success(),
+            "cargo build -p {package} --bin {name} failed"
+        );
+        built.push(name.to_string());
+    }
+    profile_dir.join(name)
 }
 
 /// Runs `learner` with `args` and returns its output.

@@ -807,16 +807,27 @@ mod tests {
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/colour")
     }
 
+    /// The committed renderings must be what our renderer makes of the fixtures today, or the
+    /// Python reference values describe stale pictures. `REGENERATE=1` rewrites them (then rerun
+    /// reference.py).
     #[test]
-    #[ignore = "regenerates tests/data/colour/*.png from the fixtures; run by hand, then rerun reference.py"]
-    fn write_reference_renderings() {
+    fn reference_renderings_are_current() {
         let fixtures = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/style");
+        let regenerate = std::env::var("REGENERATE").as_deref() == Ok("1");
         for (style, concept) in REFERENCE_ICONS {
             let svg = std::fs::read(fixtures.join(style).join(format!("{concept}.svg")))
                 .expect("fixture exists");
             let img = crate::render::render_svg(&svg).expect("fixture renders");
-            img.save(data_dir().join(format!("{style}__{concept}.png")))
-                .expect("PNG written");
+            let path = data_dir().join(format!("{style}__{concept}.png"));
+            if regenerate {
+                img.save(&path).expect("PNG written");
+            }
+            let stored = image::open(&path).expect("stored PNG").to_rgb8();
+            assert!(
+                stored == img,
+                "{} is stale: rerun with REGENERATE=1 and reference.py",
+                path.display()
+            );
         }
     }
 
