@@ -72,7 +72,7 @@ impl Plane {
         let sum: f32 = kernel.iter().sum();
         kernel.iter_mut().for_each(|k| *k /= sum);
         let (w, h) = (self.width, self.height);
-        // Rows: pad each row by replication once, then a branch-free dot product per pixel.
+        // Rows: pad each row by replication once, then one vectorisable sweep per tap.
         let mut tmp = Plane::filled(w, h, 0.0);
         let mut padded = vec![0.0f32; w + 2 * radius];
         for y in 0..h {
@@ -80,12 +80,11 @@ impl Plane {
             padded[..radius].fill(row[0]);
             padded[radius..radius + w].copy_from_slice(row);
             padded[radius + w..].fill(row[w - 1]);
-            for (x, out) in tmp.data[y * w..(y + 1) * w].iter_mut().enumerate() {
-                *out = padded[x..x + kernel.len()]
-                    .iter()
-                    .zip(&kernel)
-                    .map(|(a, k)| a * k)
-                    .sum();
+            let dst = &mut tmp.data[y * w..(y + 1) * w];
+            for (k, &kv) in kernel.iter().enumerate() {
+                for (d, s) in dst.iter_mut().zip(&padded[k..k + w]) {
+                    *d += kv * s;
+                }
             }
         }
         // Columns: accumulate whole rows so the inner loop runs along memory.

