@@ -1,0 +1,477 @@
+//! Integration tests of the decompose crate, by purpose: synthetic ground truth (thesis
+//! Fig. 2.1 and Lambertian scenes), invariants (proptest), robustness on bad input, real
+//! photo fixtures, and the CLI.
+
+use decompose::clustering::{self, ClusteringParams};
+use decompose::color_retinex::{self, ColorRetinexParams};
+use decompose::metrics;
+use decompose::retinex::{self, RetinexParams, Strokes};
+use decompose::synthetic::{self, FIG21_ALBEDO, Fig21, GroundTruth};
+use decompose::{Decomposition, Error, Image, Mask};
+use proptest::prelude::*;
+
+fn clustering(img: &Image) -> Decomposition {
+    clustering::decompose(img, None, &ClusteringParams::default(), &mut |_| {})
+        .unwrap()
+        .decomposition
+}
+
+fn retinex(img: &Image) -> Decomposition {
+    retinex::decompose(
+        img,
+        None,
+        &Strokes::default(),
+        &RetinexParams::default(),
+        &mut |_| {},
+    )
+    .unwrap()
+    .0
+}
+
+fn color_retinex(img: &Image) -> Decomposition {
+    color_retinex::decompose(img, None, &ColorRetinexParams::default(), &mut |_| {})
+        .unwrap()
+        .0
+}
+
+/// Max relative deviation of `est / truth` from its mean over a row (scale-free comparison).
+fn ratio_spread(est: &[f32], truth: &[f32]) -> f32 {
+    let r: Vec<f32> = est.iter().zip(truth).map(|(e, t)| e / t).collect();
+    let m = r.iter().sum::<f32>() / r.len() as f32;
+    r.iter().map(|v| (v / m - 1.0).abs()).fold(0.0, f32::max)
+}
+
+fn row(img: &Image, y: u32, c: usize) -> Vec<f32> {
+    (0..img.width()).map(|x| img.get(x, y)[c]).collect()
+}
+
+fn assert_product(d: &Decomposition, input: &Image) {
+    let back = d.reconstruct();
+    for (a, b) in back.data().iter().zip(input.data()) {
+        assert!(a.is_finite());
+        assert!((a - b).abs() <= 1e-5 + 1e-4 * b.abs(), "{a} vs {b}");
+    }
+    assert!(d.shading.data().iter().all(|v| v.is_finite() && *v > 0.0));
+}
+
+fn check_fig21(d: &Decomposition, g: &GroundTruth, tol: f32) {
+    for c in 0..3 {
+        let s = ratio_spread(&row(&d.reflectance, 4, c), &row(&g.reflectance, 4, c));
+        assert!(s < tol, "reflectance channel {c} spread {s}");
+    }
+    let s = ratio_spread(&row(&d.shading, 4, 0), &row(&g.shading, 4, 0));
+    assert!(s < tol, "shading spread {s}");
+}
+
+#[test]
+fn fig21a_reflectance_edge_goes_to_reflectance() {
+    let g = synthetic::fig21(Fig21::ReflectanceEdge, 64, 9);
+    let d = clustering(&g.input);
+    check_fig21(&d, &g, 0.01);
+    assert_product(&d, &g.input);
+}
+
+#[test]
+fn fig21b_shading_ramp_goes_to_shading() {
+    let g = synthetic::fig21(Fig21::ShadingRamp, 64, 9);
+    let d = clustering(&g.input);
+    check_fig21(&d, &g, 0.01);
+}
+
+#[test]
+fn fig21c_edge_inside_ramp_is_split_correctly() {
+    let g = synthetic::fig21(Fig21::Both, 64, 9);
+    let d = clustering(&g.input);
+    // The ramp changes within the 3-pixel border window, so the ratio across the edge carries
+    // a small, bounded error.
+    check_fig21(&d, &g, 0.05);
+    let left = d.reflectance.get(10, 4)[0] / d.reflectance.get(50, 4)[0];
+    let truth = FIG21_ALBEDO[0][0] / FIG21_ALBEDO[1][0];
+    assert!((left / truth - 1.0).abs() < 0.05, "{left} vs {truth}");
+}
+
+#[test]
+fn fig21_all_methods_handle_the_reflectance_edge() {
+    let g = synthetic::fig21(Fig21::ReflectanceEdge, 48, 7);
+    for d in [retinex(&g.input), color_retinex(&g.input)] {
+        check_fig21(&d, &g, 0.02);
+        assert_product(&d, &g.input);
+    }
+}
+
+#[test]
+fn lambertian_scene_is_recovered() {
+    let g = synthetic::scene(96, 80, 3);
+    let out =
+        clustering::decompose(&g.input, None, &ClusteringParams::default(), &mut |_| {}).unwrap();
+    let d = &out.decomposition;
+    assert_product(d, &g.input);
+    let s = metrics::score(&d.reflectance, &d.shading, &g.reflectance, &g.shading, &g.mask)
+        .unwrap();
+    assert!(s.lmse < 0.02, "{s:?}");
+    assert!(out.info.clusters >= 7, "{:?}", out.info);
+    assert!(out.info.solver.converged && out.info.solver.residual < 1e-6);
+    // All methods run on the scene and beat the trivial "everything is shading" answer.
+    let trivial = metrics::score(
+        &Image::from_fn(96, 80, |_, _| [1.0f32; 3]),
+        &metrics::grey(&g.input),
+        &g.reflectance,
+        &g.shading,
+        &g.mask,
+    )
+    .unwrap();
+    for (name, d) in [
+        ("clustering", d.clone()),
+        ("retinex", retinex(&g.input)),
+        ("color-retinex", color_retinex(&g.input)),
+    ] {
+        let s = metrics::score(&d.reflectance, &d.shading, &g.reflectance, &g.shading, &g.mask)
+            .unwrap();
+        assert!(s.lmse < trivial.lmse, "{name}: {s:?} vs trivial {trivial:?}");
+    }
+}
+
+#[test]
+fn clustering_is_deterministic() {
+    let g = synthetic::scene(64, 48, 9);
+    let a = clustering::decompose(&g.input, None, &ClusteringParams::default(), &mut |_| {})
+        .unwrap();
+    let b = clustering::decompose(&g.input, None, &ClusteringParams::default(), &mut |_| {})
+        .unwrap();
+    assert_eq!(a.clusters, b.clusters);
+    assert_eq!(a.decomposition, b.decomposition);
+}
+
+#[test]
+fn near_black_pixels_give_no_nan_or_inf() {
+    // The "dragon" problem: exact zeros and tiny values next to bright ones.
+    let img = Image::from_fn(40, 30, |x, y| {
+        if x < 10 {
+            [0.0f32, 0.0, 0.0]
+        } else if x < 20 {
+            [1e-7, 0.0, 3e-8 * y as f32]
+        } else {
+            [0.6, 0.4, 0.2 + 0.01 * x as f32]
+        }
+    });
+    for d in [clustering(&img), retinex(&img), color_retinex(&img)] {
+        assert!(d.reflectance.data().iter().all(|v| v.is_finite()));
+        assert_product(&d, &img);
+    }
+}
+
+#[test]
+fn mask_limits_the_work() {
+    let g = synthetic::scene(48, 40, 2);
+    let mask = Mask::from_fn(48, 40, |x, _| x >= 8 && x < 40);
+    let out =
+        clustering::decompose(&g.input, Some(&mask), &ClusteringParams::default(), &mut |_| {})
+            .unwrap();
+    assert_eq!(out.clusters.data[0], decompose::Labels::NONE);
+    assert_product(&out.decomposition, &g.input);
+    // Two disjoint mask pieces: each gets its own gauge, nothing singular.
+    let two = Mask::from_fn(48, 40, |x, _| !(20..28).contains(&x));
+    let (d, info) = retinex::decompose(
+        &g.input,
+        Some(&two),
+        &Strokes::default(),
+        &RetinexParams::default(),
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(info.anchors >= 2);
+    assert_product(&d, &g.input);
+}
+
+#[test]
+fn bad_input_is_a_clear_error() {
+    let p = ClusteringParams::default();
+    let run = |img: &Image, m: Option<&Mask>| clustering::decompose(img, m, &p, &mut |_| {});
+    assert!(matches!(
+        run(&Image::new(0, 0, 3), None),
+        Err(Error::EmptyImage { .. })
+    ));
+    assert!(matches!(
+        run(&Image::new(8, 8, 3), None),
+        Err(Error::AllBlack { .. })
+    ));
+    let mut nan = Image::from_fn(8, 8, |_, _| [0.5f32; 3]);
+    nan.px_mut(10)[1] = f32::NAN;
+    assert!(matches!(run(&nan, None), Err(Error::NonFinite { x: 2, y: 1 })));
+    let ok = Image::from_fn(8, 8, |_, _| [0.5f32; 3]);
+    assert!(matches!(
+        run(&ok, Some(&Mask::full(4, 4))),
+        Err(Error::ShapeMismatch { .. })
+    ));
+    assert!(matches!(
+        run(&ok, Some(&Mask::from_fn(8, 8, |_, _| false))),
+        Err(Error::EmptyMask)
+    ));
+    let bad = ClusteringParams {
+        k: 0,
+        ..Default::default()
+    };
+    assert!(matches!(
+        clustering::decompose(&ok, None, &bad, &mut |_| {}),
+        Err(Error::InvalidParam { name: "k", .. })
+    ));
+    let bad = RetinexParams {
+        lambda_a: -1.0,
+        ..Default::default()
+    };
+    assert!(
+        retinex::decompose(&ok, None, &Strokes::default(), &bad, &mut |_| {}).is_err()
+    );
+}
+
+#[test]
+fn unreadable_and_corrupt_files_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = decompose::io::load_rgb(dir.path().join("nope.png"), Default::default());
+    assert!(matches!(missing, Err(Error::Io { .. })));
+    let corrupt = dir.path().join("bad.png");
+    std::fs::write(&corrupt, b"\x89PNG\r\n\x1a\nbroken").unwrap();
+    assert!(matches!(
+        decompose::io::load_rgb(&corrupt, Default::default()),
+        Err(Error::Codec { .. })
+    ));
+}
+
+#[test]
+fn float_tiff_with_nan_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("nan.tiff");
+    let mut buf = image::Rgb32FImage::from_pixel(4, 4, image::Rgb([0.5, 0.5, 0.5]));
+    buf.put_pixel(1, 2, image::Rgb([0.5, f32::NAN, 0.5]));
+    image::DynamicImage::ImageRgb32F(buf).save(&p).unwrap();
+    let e = decompose::io::load_rgb(&p, Default::default());
+    assert!(matches!(e, Err(Error::NonFinite { x: 1, y: 2 })), "{e:?}");
+}
+
+#[test]
+fn photo_fixture_decomposes_with_all_methods() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/photos/chelsea.jpg");
+    let img = decompose::io::load_rgb(path, Default::default())
+        .unwrap()
+        .resize(96, 64);
+    let out =
+        clustering::decompose(&img, None, &ClusteringParams::default(), &mut |_| {}).unwrap();
+    assert!(out.info.clusters > 10, "{:?}", out.info);
+    assert!(out.info.equations.boundary > 0 && out.info.equations.reflectance > 0);
+    assert_product(&out.decomposition, &img);
+    assert_product(&retinex(&img), &img);
+    assert_product(&color_retinex(&img), &img);
+}
+
+#[test]
+fn progress_is_reported_in_order() {
+    let g = synthetic::scene(32, 24, 4);
+    let mut seen = Vec::new();
+    clustering::decompose(&g.input, None, &ClusteringParams::default(), &mut |p| {
+        seen.push(p.fraction)
+    })
+    .unwrap();
+    assert!(seen.windows(2).all(|w| w[0] <= w[1]));
+    assert_eq!(seen.last(), Some(&1.0));
+}
+
+fn arb_image() -> impl Strategy<Value = Image> {
+    (4u32..20, 4u32..16).prop_flat_map(|(w, h)| {
+        prop::collection::vec(
+            prop_oneof![Just(0.0f32), 0.0f32..1e-4, 0.0f32..1.0],
+            (w * h * 3) as usize,
+        )
+        .prop_map(move |mut v| {
+            v[0] = 0.9; // never all black
+            Image::from_vec(w, h, 3, v).unwrap()
+        })
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn reflectance_times_shading_is_the_input(img in arb_image()) {
+        let d = clustering(&img);
+        let back = d.reconstruct();
+        for (a, b) in back.data().iter().zip(img.data()) {
+            prop_assert!((a - b).abs() <= 1e-5 + 1e-4 * b.abs(), "{} vs {}", a, b);
+        }
+        let r = retinex(&img).reconstruct();
+        let c = color_retinex(&img).reconstruct();
+        for ((a, b), x) in r.data().iter().zip(c.data()).zip(img.data()) {
+            prop_assert!((a - x).abs() <= 1e-5 + 1e-4 * x.abs());
+            prop_assert!((b - x).abs() <= 1e-5 + 1e-4 * x.abs());
+        }
+    }
+}
+
+#[cfg(feature = "cli")]
+mod cli {
+    use super::*;
+    use decompose::io::{Depth, Encoding, save};
+    use std::path::Path;
+    use std::process::Command;
+
+    fn bin() -> Command {
+        Command::new(env!("CARGO_BIN_EXE_decompose"))
+    }
+
+    fn write_scene(dir: &Path) -> std::path::PathBuf {
+        let g = synthetic::scene(64, 48, 5);
+        let p = dir.join("scene.png");
+        save(&p, &g.input, Encoding::Srgb, Depth::Sixteen).unwrap();
+        p
+    }
+
+    #[test]
+    fn image_writes_all_outputs() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = write_scene(dir.path());
+        for method in ["clustering", "retinex", "color-retinex"] {
+            let out = dir.path().join(method);
+            let st = bin()
+                .args(["image", "-q", "--depth", "16", "--method", method, "--out-dir"])
+                .arg(&out)
+                .arg(&input)
+                .status()
+                .unwrap();
+            assert!(st.success(), "{method}");
+            for f in ["reflectance.png", "shading.png", "scatter.png", "stats.json"] {
+                assert!(out.join(f).exists(), "{method}: {f}");
+            }
+            let stats: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap())
+                    .unwrap();
+            assert_eq!(stats["method"], method);
+            assert!(stats["solver"]["residual"].as_f64().unwrap() < 1e-6);
+        }
+        let stats: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join("clustering/stats.json")).unwrap(),
+        )
+        .unwrap();
+        assert!(stats["clusters"].as_u64().unwrap() > 1);
+        assert!(stats["equations"]["boundary"].as_u64().unwrap() > 0);
+        assert!(dir.path().join("clustering/clusters.png").exists());
+        let r = image::open(dir.path().join("clustering/reflectance.png")).unwrap();
+        assert!(matches!(r, image::DynamicImage::ImageRgb16(_)));
+    }
+
+    #[test]
+    fn bad_input_exits_with_a_message() {
+        let dir = tempfile::tempdir().unwrap();
+        let bad = dir.path().join("bad.png");
+        std::fs::write(&bad, b"nope").unwrap();
+        let out = bin()
+            .args(["image", "-q", "--out-dir"])
+            .arg(dir.path().join("o"))
+            .arg(&bad)
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let msg = String::from_utf8_lossy(&out.stderr);
+        assert!(msg.contains("bad.png"), "{msg}");
+        let black = dir.path().join("black.png");
+        save(&black, &Image::new(8, 8, 3), Encoding::Srgb, Depth::Eight).unwrap();
+        let out = bin()
+            .args(["image", "-q", "--out-dir"])
+            .arg(dir.path().join("o"))
+            .arg(&black)
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        assert!(String::from_utf8_lossy(&out.stderr).contains("black"));
+    }
+
+    #[test]
+    fn edits_run_from_the_command_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = write_scene(dir.path());
+        let region = dir.path().join("region.png");
+        let m = Image::from_fn(64, 48, |x, _| if x < 32 { [1.0f32] } else { [0.0] });
+        save(&region, &m, Encoding::Linear, Depth::Eight).unwrap();
+        let cases: Vec<Vec<String>> = vec![
+            vec!["recolour".into(), "--hue".into(), "90".into(), "--region".into(), region.display().to_string()],
+            vec!["retexture".into(), "--region".into(), region.display().to_string(), "--texture".into(), input.display().to_string()],
+            vec!["relight".into(), "--curve".into(), "0:0,0.5:0.8,1:1".into()],
+            vec!["transfer".into(), "--source".into(), input.display().to_string()],
+            vec!["stylise".into()],
+            vec!["segment".into(), "--segments".into(), "4".into()],
+        ];
+        for c in cases {
+            let out = dir.path().join(format!("{}.png", c[0]));
+            let st = bin()
+                .arg("edit")
+                .args(&c)
+                .arg("--out")
+                .arg(&out)
+                .arg(&input)
+                .status()
+                .unwrap();
+            assert!(st.success(), "{c:?}");
+            assert!(out.exists(), "{c:?}");
+        }
+    }
+
+    #[test]
+    fn eval_reads_an_mit_style_folder_and_writes_json() {
+        let dir = tempfile::tempdir().unwrap();
+        for (name, seed) in [("ball", 1u64), ("cube", 2)] {
+            let g = synthetic::scene(48, 40, seed);
+            let o = dir.path().join(name);
+            std::fs::create_dir_all(&o).unwrap();
+            save(o.join("diffuse.png"), &g.input, Encoding::Linear, Depth::Sixteen).unwrap();
+            save(o.join("original.png"), &g.input, Encoding::Linear, Depth::Sixteen).unwrap();
+            save(o.join("reflectance.png"), &g.reflectance, Encoding::Linear, Depth::Sixteen)
+                .unwrap();
+            save(o.join("shading.png"), &g.shading, Encoding::Linear, Depth::Sixteen).unwrap();
+            let mask = Image::from_fn(48, 40, |_, _| [1.0f32]);
+            save(o.join("mask.png"), &mask, Encoding::Linear, Depth::Sixteen).unwrap();
+        }
+        let json = dir.path().join("scores.json");
+        let out = bin()
+            .args(["eval", "--mit"])
+            .arg(dir.path())
+            .arg("--json")
+            .arg(&json)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let table = String::from_utf8_lossy(&out.stdout);
+        assert!(table.contains("ball") && table.contains("mean"), "{table}");
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        for m in ["clustering", "retinex", "color-retinex"] {
+            let lmse = v[m]["mean"]["lmse"].as_f64().unwrap();
+            assert!(lmse.is_finite() && lmse < 0.1, "{m}: {lmse}");
+            assert!(v[m]["objects"]["cube"]["si_mse"].as_f64().is_some());
+        }
+    }
+}
+
+#[test]
+fn lmse_matches_numpy_reference() {
+    // Values from scripts/reference/lmse_reference.py (NumPy port of Grosse et al.'s code).
+    let r: serde_json::Value = serde_json::from_str(include_str!("data/lmse_reference.json"))
+        .unwrap();
+    let (w, h) = (r["width"].as_u64().unwrap() as u32, r["height"].as_u64().unwrap() as u32);
+    let gt_f = |x: f64, y: f64| 0.2 + 0.5 * ((0.3 * x + 0.1 * y).sin() + 1.0) / 2.0;
+    let gt = Image::from_fn(w, h, |x, y| [gt_f(x as f64, y as f64) as f32]);
+    let est = Image::from_fn(w, h, |x, y| {
+        let (fx, fy) = (x as f64, y as f64);
+        let v = gt_f(fx, fy) * (1.0 + 0.2 * (0.05 * fx * fy).cos())
+            + 0.05 * ((x * 7 + y * 3) % 11) as f64 / 11.0;
+        [v as f32]
+    });
+    let mask = Mask::from_fn(w, h, |x, y| {
+        !((x as f64 - 20.0).powi(2) + (y as f64 - 15.0).powi(2) < 36.0)
+    });
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-5 * b.abs();
+    let l = metrics::lmse(&gt, &est, &mask, 20, 10).unwrap();
+    assert!(close(l, r["lmse_20_10"].as_f64().unwrap()), "{l} vs {}", r["lmse_20_10"]);
+    let l = metrics::lmse(&gt, &est, &mask, 8, 4).unwrap();
+    assert!(close(l, r["lmse_8_4"].as_f64().unwrap()), "{l} vs {}", r["lmse_8_4"]);
+    let s = metrics::si_mse(&gt, &est, &mask).unwrap();
+    assert!(close(s, r["si_mse"].as_f64().unwrap()), "{s} vs {}", r["si_mse"]);
+}
