@@ -18,7 +18,10 @@
 //!   replaced by `T' = 0.05·`(mean squared chroma difference of neighbours in the region), §3.4.
 //!
 //! Deliberate deviations: the texture descriptor is the quantised rg-chromaticity of pixels
-//! whose 3×3 window is chroma-flat (Zhao et al. cluster 3×3 chroma patches); groups smaller
+//! whose 3×3 window is chroma-flat (Zhao et al. cluster 3×3 chroma patches), further split
+//! into luminance bins `texture_stops` wide: chroma alone puts black and white albedo (both
+//! grey) in one group, and with `λ_r = 10⁴` that forces them to one reflectance (on our
+//! synthetic scene, LMSE 0.118 without the split); groups smaller
 //! than `min_group` pixels are ignored; connected pieces of the mask without a brightest pixel
 //! are anchored at their own brightest pixel, so every piece has a defined scale.
 
@@ -47,6 +50,9 @@ pub struct RetinexParams {
     pub brightest_fraction: f64,
     /// Bins per axis of the rg-chromaticity texture descriptor. Default 64.
     pub texture_bins: usize,
+    /// Width, in stops (factors of 2) of luminance, of the luminance bins that split texture
+    /// groups (see the module docs). Default 1.
+    pub texture_stops: f64,
     /// Smallest texture group used. Default 20 pixels.
     pub min_group: usize,
     /// Factor of the local threshold `T'` in user regions, §3.4. Default 0.05.
@@ -65,6 +71,7 @@ impl Default for RetinexParams {
             omega: 100.0,
             brightest_fraction: 0.001,
             texture_bins: 64,
+            texture_stops: 1.0,
             min_group: 20,
             local_threshold_factor: 0.05,
             solver: SolverParams::default(),
@@ -96,6 +103,9 @@ impl RetinexParams {
                 self.brightest_fraction,
                 "must be in (0, 1]",
             ));
+        }
+        if !(self.texture_stops.is_finite() && self.texture_stops > 0.0) {
+            return Err(Error::param("texture_stops", self.texture_stops, "must be > 0"));
         }
         if self.texture_bins == 0 || self.texture_bins > 4096 {
             return Err(Error::param("texture_bins", self.texture_bins, "must be in 1..=4096"));
@@ -210,7 +220,9 @@ pub fn decompose(
         let c = g.chroma[p];
         let s = c[0] + c[1] + c[2];
         let q = |v: f64| ((v / s) * bins as f64).floor().clamp(0.0, bins as f64 - 1.0) as usize;
-        let key = q(c[0]) * bins + q(c[1]);
+        let stop = ((g.y[p] / g.max_y).log2() / params.texture_stops).floor();
+        let stop = (-stop).clamp(0.0, 255.0) as usize;
+        let key = (stop * bins + q(c[0])) * bins + q(c[1]);
         group_of[p] = key;
         *group_size.entry(key).or_default() += 1;
     }

@@ -309,6 +309,7 @@ pub fn zero_mean_per_component(x: &mut [f64], components: &[usize]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use faer::linalg::solvers::SolveLstsq;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -318,15 +319,16 @@ mod tests {
         let m = sys.equations();
         let mut a = Mat::<f64>::zeros(m + n, n);
         let mut b = Mat::<f64>::zeros(m + n, 1);
-        let mut diag = vec![0.0; n];
         for r in 0..m {
             let sw = sys.weight[r].sqrt();
             for (c, v) in sys.row(r) {
                 a[(r, c)] += sw * v;
-                diag[c] += sys.weight[r] * v * v;
             }
             b[(r, 0)] = sw * sys.rhs[r];
         }
+        let diag: Vec<f64> = (0..n)
+            .map(|c| (0..m).map(|r| a[(r, c)] * a[(r, c)]).sum())
+            .collect();
         let eps = eps_rel * diag.iter().sum::<f64>() / n as f64;
         for i in 0..n {
             a[(m + i, i)] = eps.sqrt();
