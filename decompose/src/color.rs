@@ -11,7 +11,11 @@ pub fn srgb_to_linear(v: f32) -> f32 {
 
 /// Linear light to sRGB encoding; the input is clamped to [0, 1].
 pub fn linear_to_srgb(v: f32) -> f32 {
-    let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
+    let v = if v.is_finite() {
+        v.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     if v <= 0.003_130_8 {
         v * 12.92
     } else {
@@ -99,7 +103,10 @@ mod tests {
         let g = linear_to_lab([0.18, 0.18, 0.18]);
         assert!((g[0] - 49.5).abs() < 0.2, "{g:?}");
         let red = linear_to_lab([1.0, 0.0, 0.0]);
-        assert!((red[0] - 53.24).abs() < 0.1 && (red[1] - 80.09).abs() < 0.2, "{red:?}");
+        assert!(
+            (red[0] - 53.24).abs() < 0.1 && (red[1] - 80.09).abs() < 0.2,
+            "{red:?}"
+        );
     }
 
     #[test]

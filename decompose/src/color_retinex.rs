@@ -63,8 +63,8 @@ pub fn decompose(
     let mut sys = LinearSystem::new(g.pixel.len());
     for (p, q) in g.pairs() {
         let d = g.log_y[p] - g.log_y[q];
-        let reflectance_edge = d.abs() > params.threshold_gray
-            || g.chroma_dist2(p, q).sqrt() > params.threshold_color;
+        let reflectance_edge =
+            d.abs() > params.threshold_gray || g.chroma_dist2(p, q).sqrt() > params.threshold_color;
         let rhs = if reflectance_edge { d } else { 0.0 };
         sys.add(
             &[(g.index[p] as usize, 1.0), (g.index[q] as usize, -1.0)],

@@ -136,7 +136,11 @@ pub(crate) fn check_input(input: &Image, mask: &Mask) -> crate::Result<()> {
         });
     }
     if input.channels() != 3 {
-        return Err(Error::param("channels", input.channels(), "input must be RGB"));
+        return Err(Error::param(
+            "channels",
+            input.channels(),
+            "input must be RGB",
+        ));
     }
     input.check_dims(mask.dims())?;
     let mut max = 0.0f32;

@@ -87,7 +87,11 @@ impl Curve {
         }
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         if pts.windows(2).any(|w| w[1].0 <= w[0].0) {
-            return Err(Error::param("curve", "duplicate x", "control x values must differ"));
+            return Err(Error::param(
+                "curve",
+                "duplicate x",
+                "control x values must differ",
+            ));
         }
         let (xs, ys): (Vec<f32>, Vec<f32>) = pts.into_iter().unzip();
         let n = xs.len();
@@ -208,11 +212,13 @@ impl Default for StyliseParams {
 /// Stylisation: reflectance saturation change, flattened shading, and dark lines where the
 /// reflectance changes (a cartoon-like look, thesis §2.6).
 pub fn stylise(d: &Decomposition, p: &StyliseParams) -> Result<Image> {
-    if !(p.flatten.is_finite() && (0.0..=1.0).contains(&p.flatten))
-        || !(p.edge_strength.is_finite() && (0.0..=1.0).contains(&p.edge_strength))
-        || !(p.saturation.is_finite() && p.saturation >= 0.0)
-        || !p.edge_threshold.is_finite()
-    {
+    let unit = |v: f32| v.is_finite() && (0.0..=1.0).contains(&v);
+    let valid = unit(p.flatten)
+        && unit(p.edge_strength)
+        && p.saturation.is_finite()
+        && p.saturation >= 0.0
+        && p.edge_threshold.is_finite();
+    if !valid {
         return Err(Error::param(
             "stylise",
             format!("{p:?}"),
@@ -283,8 +289,13 @@ mod tests {
     use super::*;
 
     fn two_tone() -> Decomposition {
-        let reflectance =
-            Image::from_fn(8, 4, |x, _| if x < 4 { [0.8f32, 0.2, 0.2] } else { [0.2, 0.2, 0.8] });
+        let reflectance = Image::from_fn(8, 4, |x, _| {
+            if x < 4 {
+                [0.8f32, 0.2, 0.2]
+            } else {
+                [0.2, 0.2, 0.8]
+            }
+        });
         let shading = Image::from_fn(8, 4, |x, _| [0.3 + 0.05 * x as f32]);
         Decomposition {
             reflectance,

@@ -93,7 +93,9 @@ pub enum Error {
         message: String,
     },
     /// The solution did not reach the requested residual.
-    #[error("solver did not converge after {iterations} iterations (relative residual {residual:e})")]
+    #[error(
+        "solver did not converge after {iterations} iterations (relative residual {residual:e})"
+    )]
     NoConvergence {
         /// Iterations performed.
         iterations: usize,

@@ -152,7 +152,11 @@ pub fn load_mask(path: impl AsRef<Path>) -> Result<Mask> {
 }
 
 fn quantise(v: f32, enc: Encoding, max: f32) -> f32 {
-    let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
+    let v = if v.is_finite() {
+        v.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     let v = match enc {
         Encoding::Srgb => linear_to_srgb(v),
         Encoding::Linear => v,
@@ -252,6 +256,9 @@ mod tests {
                 ..Default::default()
             },
         );
-        assert!(matches!(e, Err(Error::TooLarge { limit: 100, .. })), "{e:?}");
+        assert!(
+            matches!(e, Err(Error::TooLarge { limit: 100, .. })),
+            "{e:?}"
+        );
     }
 }

@@ -130,8 +130,8 @@ pub fn kmeans<const D: usize>(
                 let mut acc = vec![([0.0; D], 0usize); centres.len()];
                 for (l, p) in ls.iter().zip(ps) {
                     let a = &mut acc[*l as usize];
-                    for t in 0..D {
-                        a.0[t] += p[t] as f64;
+                    for (s, v) in a.0.iter_mut().zip(p) {
+                        *s += *v as f64;
                     }
                     a.1 += 1;
                 }
@@ -143,8 +143,8 @@ pub fn kmeans<const D: usize>(
             let mut s = [0.0; D];
             let mut n = 0;
             for acc in &partial {
-                for t in 0..D {
-                    s[t] += acc[j].0[t];
+                for (s, v) in s.iter_mut().zip(&acc[j].0) {
+                    *s += v;
                 }
                 n += acc[j].1;
             }
@@ -215,7 +215,13 @@ mod tests {
 
     #[test]
     fn zero_k_is_an_error() {
-        let e = kmeans(&[[0.0f32]], &KMeansParams { k: 0, ..Default::default() });
+        let e = kmeans(
+            &[[0.0f32]],
+            &KMeansParams {
+                k: 0,
+                ..Default::default()
+            },
+        );
         assert!(matches!(e, Err(Error::InvalidParam { name: "k", .. })));
     }
 }

@@ -18,7 +18,10 @@ use decompose::retinex::{self, RetinexParams, Strokes};
 use decompose::{Decomposition, Image, Labels, Mask, Progress, plot};
 
 #[derive(Parser)]
-#[command(version, about = "Intrinsic images: reflectance and shading from one photograph")]
+#[command(
+    version,
+    about = "Intrinsic images: reflectance and shading from one photograph"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -309,12 +312,8 @@ fn run_method(
             }
         }
         Method::ColorRetinex => {
-            let (d, info) = color_retinex::decompose(
-                input,
-                mask,
-                &ColorRetinexParams::default(),
-                &mut report,
-            )?;
+            let (d, info) =
+                color_retinex::decompose(input, mask, &ColorRetinexParams::default(), &mut report)?;
             Run {
                 decomposition: d,
                 clusters: None,
@@ -352,17 +351,29 @@ fn run_image(a: ImageArgs) -> Result<()> {
         Depth::Eight
     };
     let d = &run.decomposition;
-    io::save(a.out_dir.join("reflectance.png"), &d.reflectance, enc, depth)?;
-    // Shading is written relative to its maximum inside the mask so it fits the file's range.
-    let smax = d.shading.max().max(f32::MIN_POSITIVE);
     io::save(
-        a.out_dir.join("shading.png"),
-        &d.shading.map(|v| v / smax),
+        a.out_dir.join("reflectance.png"),
+        &d.reflectance,
         enc,
         depth,
     )?;
+    // Shading is written relative to its maximum inside the mask so it fits the file's range.
+    // Outside the mask the shading is black in the file (the library keeps 1 there).
     let full = Mask::full(input.width(), input.height());
     let m = mask.as_ref().unwrap_or(&full);
+    let mut shading = d.shading.clone();
+    for i in 0..shading.len() {
+        if !m.at(i) {
+            shading.px_mut(i)[0] = 0.0;
+        }
+    }
+    let smax = shading.max().max(f32::MIN_POSITIVE);
+    io::save(
+        a.out_dir.join("shading.png"),
+        &shading.map(|v| v / smax),
+        enc,
+        depth,
+    )?;
     if let Some(c) = &run.clusters {
         io::save_rgb8(
             a.out_dir.join("clusters.png"),
@@ -491,9 +502,10 @@ fn run_eval(a: EvalArgs) -> Result<()> {
         let row = |label: &str, get: &dyn Fn(&MethodResult) -> Option<Scores>| {
             print!("{label:<12}");
             for n in &names {
-                let v = results.get(n).and_then(get).map_or(f64::NAN, |s| {
-                    if pick == 0 { s.lmse } else { s.si_mse }
-                });
+                let v = results
+                    .get(n)
+                    .and_then(get)
+                    .map_or(f64::NAN, |s| if pick == 0 { s.lmse } else { s.si_mse });
                 print!(" {v:>14.5}");
             }
             println!();
@@ -517,12 +529,7 @@ fn run_eval(a: EvalArgs) -> Result<()> {
 
 fn decompose_file(io_args: &EditIo) -> Result<(Image, Run)> {
     let input = load_input(&io_args.input, io_args.opts.linear)?;
-    let mask = io_args
-        .opts
-        .mask
-        .as_ref()
-        .map(io::load_mask)
-        .transpose()?;
+    let mask = io_args.opts.mask.as_ref().map(io::load_mask).transpose()?;
     let run = run_method(&input, mask.as_ref(), &io_args.opts, &ProgressBar::hidden())?;
     Ok((input, run))
 }

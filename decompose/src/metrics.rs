@@ -18,7 +18,11 @@ impl Acc {
     /// Σ m (g − α e)² with the optimal α = Σ g e / Σ e² (α = 0 when the estimate is ~0,
     /// as in the reference implementation's 1e-5 guard).
     fn sse(&self) -> f64 {
-        let alpha = if self.ee > 1e-5 { self.ge / self.ee } else { 0.0 };
+        let alpha = if self.ee > 1e-5 {
+            self.ge / self.ee
+        } else {
+            0.0
+        };
         (self.gg - 2.0 * alpha * self.ge + alpha * alpha * self.ee).max(0.0)
     }
 }
@@ -43,11 +47,19 @@ fn check(gt: &Image, est: &Image, mask: &Mask) -> Result<()> {
 pub fn lmse(gt: &Image, est: &Image, mask: &Mask, window: usize, stride: usize) -> Result<f64> {
     check(gt, est, mask)?;
     if window == 0 || stride == 0 {
-        return Err(Error::param("window/stride", window.min(stride), "must be > 0"));
+        return Err(Error::param(
+            "window/stride",
+            window.min(stride),
+            "must be > 0",
+        ));
     }
     let (w, h, c) = (gt.width() as usize, gt.height() as usize, gt.channels());
     let (mut ssq, mut total) = (0.0, 0.0);
-    let starts = |n: usize| (0..).map(move |k| k * stride).take_while(move |s| s + window <= n);
+    let starts = |n: usize| {
+        (0..)
+            .map(move |k| k * stride)
+            .take_while(move |s| s + window <= n)
+    };
     for y0 in starts(h) {
         for x0 in starts(w) {
             let mut a = Acc::default();
@@ -157,8 +169,7 @@ pub fn whdr(reflectance: &Image, judgements: &str, delta: f64) -> Result<f64> {
         path: Path::new("<judgements>").to_path_buf(),
         message: m.to_string(),
     };
-    let v: serde_json::Value =
-        serde_json::from_str(judgements).map_err(|e| fmt(&e.to_string()))?;
+    let v: serde_json::Value = serde_json::from_str(judgements).map_err(|e| fmt(&e.to_string()))?;
     let points = v["intrinsic_points"]
         .as_array()
         .ok_or_else(|| fmt("missing intrinsic_points"))?;

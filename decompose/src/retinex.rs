@@ -105,10 +105,18 @@ impl RetinexParams {
             ));
         }
         if !(self.texture_stops.is_finite() && self.texture_stops > 0.0) {
-            return Err(Error::param("texture_stops", self.texture_stops, "must be > 0"));
+            return Err(Error::param(
+                "texture_stops",
+                self.texture_stops,
+                "must be > 0",
+            ));
         }
         if self.texture_bins == 0 || self.texture_bins > 4096 {
-            return Err(Error::param("texture_bins", self.texture_bins, "must be in 1..=4096"));
+            return Err(Error::param(
+                "texture_bins",
+                self.texture_bins,
+                "must be in 1..=4096",
+            ));
         }
         self.solver.validate()
     }
@@ -219,7 +227,11 @@ pub fn decompose(
         }
         let c = g.chroma[p];
         let s = c[0] + c[1] + c[2];
-        let q = |v: f64| ((v / s) * bins as f64).floor().clamp(0.0, bins as f64 - 1.0) as usize;
+        let q = |v: f64| {
+            ((v / s) * bins as f64)
+                .floor()
+                .clamp(0.0, bins as f64 - 1.0) as usize
+        };
         let stop = ((g.y[p] / g.max_y).log2() / params.texture_stops).floor();
         let stop = (-stop).clamp(0.0, 255.0) as usize;
         let key = (stop * bins + q(c[0])) * bins + q(c[1]);
@@ -268,7 +280,11 @@ pub fn decompose(
     for (k, m) in strokes.constant_albedo.iter().enumerate() {
         let gi = n + keys.len() + k;
         for &p in g.pixel.iter().filter(|&&p| m.at(p)) {
-            sys.add(&[(u(p), 1.0), (gi, 1.0)], g.log_y[p], params.lambda_r.max(1.0));
+            sys.add(
+                &[(u(p), 1.0), (gi, 1.0)],
+                g.log_y[p],
+                params.lambda_r.max(1.0),
+            );
         }
     }
     for (k, m) in strokes.constant_shading.iter().enumerate() {

@@ -40,10 +40,18 @@ impl SolverParams {
     /// Checks the ranges.
     pub fn validate(&self) -> Result<()> {
         if !(self.damping.is_finite() && self.damping >= 0.0) {
-            return Err(Error::param("damping", self.damping, "must be finite and >= 0"));
+            return Err(Error::param(
+                "damping",
+                self.damping,
+                "must be finite and >= 0",
+            ));
         }
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
-            return Err(Error::param("tolerance", self.tolerance, "must be finite and > 0"));
+            return Err(Error::param(
+                "tolerance",
+                self.tolerance,
+                "must be finite and > 0",
+            ));
         }
         Ok(())
     }
@@ -225,7 +233,11 @@ impl LinearSystem {
                 v += entries[k].1;
                 k += 1;
             }
-            triplets.push(Triplet::new((key & 0xffff_ffff) as usize, (key >> 32) as usize, v));
+            triplets.push(Triplet::new(
+                (key & 0xffff_ffff) as usize,
+                (key >> 32) as usize,
+                v,
+            ));
         }
         drop(entries);
         info.normal_nonzeros = triplets.len();
@@ -349,7 +361,11 @@ mod tests {
                 let terms: Vec<(usize, f64)> = (0..k)
                     .map(|_| (rng.random_range(0..n), rng.random_range(-2.0..2.0)))
                     .collect();
-                sys.add(&terms, rng.random_range(-1.0..1.0), rng.random_range(0.1..10.0));
+                sys.add(
+                    &terms,
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(0.1..10.0),
+                );
             }
             // Anchor every unknown so the dense problem is well posed too.
             for i in 0..n {

@@ -101,12 +101,11 @@ pub(crate) struct PixelData<'a> {
     pub y: &'a [f32],
 }
 
-/// Region sums and the sorted list of borders `((lo, hi), Border)`.
-pub(crate) fn graph(
-    labels: &[u32],
-    count: usize,
-    px: &PixelData,
-) -> (Vec<Region>, Vec<((u32, u32), Border)>) {
+/// Borders keyed by (smaller, larger) region id, sorted.
+pub(crate) type Borders = Vec<((u32, u32), Border)>;
+
+/// Region sums and the sorted list of borders.
+pub(crate) fn graph(labels: &[u32], count: usize, px: &PixelData) -> (Vec<Region>, Borders) {
     let mut regions = vec![Region::default(); count];
     let mut borders: HashMap<(u32, u32), Border> = HashMap::new();
     for (p, &l) in labels.iter().enumerate() {
@@ -206,6 +205,47 @@ pub(crate) fn merge_small(
         count = relabel(labels, &mut dsu, count);
     }
     count
+}
+
+/// Merges thin regions — fewer pixels than `ratio` × their border pixel pairs, i.e. strips
+/// about `ratio` pixels wide, typically the anti-aliased fringe between two albedos — into the
+/// adjacent region of closest mean chroma. Returns the new count.
+pub(crate) fn merge_thin(labels: &mut [u32], count: usize, px: &PixelData, ratio: f64) -> usize {
+    if ratio <= 0.0 {
+        return count;
+    }
+    let (regions, borders) = graph(labels, count, px);
+    let mut border_total = vec![0usize; count];
+    let mut adj: Vec<Vec<(u32, usize)>> = vec![Vec::new(); count];
+    for ((a, b), bd) in &borders {
+        border_total[*a as usize] += bd.pairs;
+        border_total[*b as usize] += bd.pairs;
+        adj[*a as usize].push((*b, bd.pairs));
+        adj[*b as usize].push((*a, bd.pairs));
+    }
+    let thin: Vec<bool> = (0..count)
+        .map(|i| (regions[i].pixels as f64) < ratio * border_total[i] as f64)
+        .collect();
+    let mut dsu = Dsu::new(count);
+    for (i, r) in regions.iter().enumerate() {
+        if !thin[i] {
+            continue;
+        }
+        let ab = r.mean_ab();
+        // Prefer thick neighbours, so a fringe never chains into another fringe.
+        let best = adj[i]
+            .iter()
+            .map(|&(j, _)| {
+                let o = regions[j as usize].mean_ab();
+                let d = (ab[0] - o[0]).powi(2) + (ab[1] - o[1]).powi(2);
+                (j, thin[j as usize], d)
+            })
+            .min_by(|a, b| a.1.cmp(&b.1).then(a.2.total_cmp(&b.2)).then(a.0.cmp(&b.0)));
+        if let Some((j, _, _)) = best {
+            dsu.union(i as u32, j);
+        }
+    }
+    relabel(labels, &mut dsu, count)
 }
 
 /// Merges adjacent regions whose mean RGB distance across the border is below `threshold`.
