@@ -335,7 +335,7 @@ pub fn decompose(
         // The border lies half a pixel before sample t = 0.
         mean_v + slope * (-0.5 - st / n)
     };
-    let edge_index: std::collections::HashMap<(u32, u32), usize> = borders
+    let edge_index: regions::PairMap<usize> = borders
         .iter()
         .enumerate()
         .map(|(e, (key, _))| (*key, e))
@@ -487,24 +487,27 @@ fn median_at_borders(s: &Image, labels: &[u32], w: usize, h: usize, size: usize)
         .collect();
     let values: Vec<(usize, f32)> = border
         .par_iter()
-        .map(|&p| {
-            let (x, y) = ((p % w) as isize, (p / w) as isize);
-            let mut win = Vec::with_capacity(size * size);
-            for dy in -r..=r {
-                for dx in -r..=r {
-                    let (nx, ny) = (x + dx, y + dy);
-                    if nx >= 0 && ny >= 0 && nx < w as isize && ny < h as isize {
-                        let q = ny as usize * w + nx as usize;
-                        if labels[q] != Labels::NONE {
-                            win.push(s.px(q)[0]);
+        .map_init(
+            || Vec::with_capacity(size * size),
+            |win, &p| {
+                let (x, y) = ((p % w) as isize, (p / w) as isize);
+                win.clear();
+                for dy in -r..=r {
+                    for dx in -r..=r {
+                        let (nx, ny) = (x + dx, y + dy);
+                        if nx >= 0 && ny >= 0 && nx < w as isize && ny < h as isize {
+                            let q = ny as usize * w + nx as usize;
+                            if labels[q] != Labels::NONE {
+                                win.push(s.px(q)[0]);
+                            }
                         }
                     }
                 }
-            }
-            let m = win.len() / 2;
-            let (_, v, _) = win.select_nth_unstable_by(m, f32::total_cmp);
-            (p, *v)
-        })
+                let m = win.len() / 2;
+                let (_, v, _) = win.select_nth_unstable_by(m, f32::total_cmp);
+                (p, *v)
+            },
+        )
         .collect();
     let mut out = s.clone();
     for (p, v) in values {

@@ -2,8 +2,34 @@
 //! between them, and the two merging steps of §2.3.2.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use crate::decomposition::Labels;
+
+/// A multiplicative hasher for the (u32, u32) border keys: SipHash is needlessly slow here and
+/// the keys are not attacker-controlled.
+#[derive(Default)]
+pub(crate) struct PairHasher(u64);
+
+impl Hasher for PairHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(b as u64);
+        }
+    }
+    fn write_u32(&mut self, v: u32) {
+        self.write_u64(v as u64);
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(26) ^ v).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+}
+
+/// Hash map keyed by region pairs.
+pub(crate) type PairMap<V> = HashMap<(u32, u32), V, BuildHasherDefault<PairHasher>>;
 
 /// Union–find over region ids.
 pub(crate) struct Dsu(Vec<u32>);
@@ -107,7 +133,7 @@ pub(crate) type Borders = Vec<((u32, u32), Border)>;
 /// Region sums and the sorted list of borders.
 pub(crate) fn graph(labels: &[u32], count: usize, px: &PixelData) -> (Vec<Region>, Borders) {
     let mut regions = vec![Region::default(); count];
-    let mut borders: HashMap<(u32, u32), Border> = HashMap::new();
+    let mut borders: PairMap<Border> = PairMap::default();
     for (p, &l) in labels.iter().enumerate() {
         if l == Labels::NONE {
             continue;
