@@ -470,6 +470,31 @@ mod cli {
     }
 
     #[test]
+    fn whdr_runs_from_the_command_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let g = synthetic::fig21(Fig21::ReflectanceEdge, 40, 20);
+        let img = dir.path().join("strip.png");
+        save(&img, &g.input, Encoding::Srgb, Depth::Sixteen).unwrap();
+        // The two albedos differ by less than δ = 10 % in mean channel value: "about equal".
+        let json = dir.path().join("strip.json");
+        std::fs::write(
+            &json,
+            r#"{"intrinsic_points":[{"id":1,"x":0.1,"y":0.5,"opaque":true},
+                                   {"id":2,"x":0.9,"y":0.5,"opaque":true}],
+                "intrinsic_comparisons":[{"point1":1,"point2":2,"darker":"E","darker_score":0.9}]}"#,
+        )
+        .unwrap();
+        let out = bin().arg("whdr").arg(&img).arg(&json).output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.contains("WHDR(0.10) = 0.0000"), "{text}");
+    }
+
+    #[test]
     fn eval_reads_an_mit_style_folder_and_writes_json() {
         let dir = tempfile::tempdir().unwrap();
         for (name, seed) in [("ball", 1u64), ("cube", 2)] {
@@ -570,5 +595,92 @@ fn lmse_matches_numpy_reference() {
         close(s, r["si_mse"].as_f64().unwrap()),
         "{s} vs {}",
         r["si_mse"]
+    );
+}
+
+/// Left half albedo 0.3, right half 0.6, both grey, under constant light: a pure Retinex
+/// chroma test cannot see this edge (equal chroma), so it is explained as shading.
+fn grey_step() -> GroundTruth {
+    let refl = Image::from_fn(32, 12, |x, _| if x < 16 { [0.3f32; 3] } else { [0.6; 3] });
+    let shade = Image::from_fn(32, 12, |_, _| [0.8f32]);
+    let mut input = refl.clone();
+    input.data_mut().iter_mut().for_each(|v| *v *= 0.8);
+    GroundTruth {
+        input,
+        reflectance: refl,
+        shading: shade,
+        mask: Mask::full(32, 12),
+    }
+}
+
+fn retinex_with(img: &Image, strokes: &Strokes) -> Decomposition {
+    retinex::decompose(img, None, strokes, &RetinexParams::default(), &mut |_| {})
+        .unwrap()
+        .0
+}
+
+#[test]
+fn retinex_constant_shading_stroke_recovers_a_grey_edge() {
+    let g = grey_step();
+    let ratio = |d: &Decomposition| d.reflectance.get(28, 6)[0] / d.reflectance.get(4, 6)[0];
+    let plain = retinex_with(&g.input, &Strokes::default());
+    assert!((ratio(&plain) - 2.0).abs() > 0.5, "{}", ratio(&plain));
+    let stroke = Mask::from_fn(32, 12, |_, y| y == 6);
+    let d = retinex_with(
+        &g.input,
+        &Strokes {
+            constant_shading: vec![stroke],
+            ..Default::default()
+        },
+    );
+    assert!((ratio(&d) - 2.0).abs() < 0.05, "{}", ratio(&d));
+    assert_product(&d, &g.input);
+}
+
+#[test]
+fn retinex_constant_albedo_stroke_moves_a_ramp_into_shading() {
+    // A shading ramp over an albedo whose chroma jitters above T everywhere: without help the
+    // whole ramp lands in the reflectance; a constant-albedo stroke moves it to the shading.
+    let img = Image::from_fn(40, 10, |x, y| {
+        let s = 0.2 + 0.02 * x as f32;
+        let tint = if (x + y) % 2 == 0 { 0.06 } else { -0.06 };
+        [0.5 * s * (1.0 + tint), 0.5 * s, 0.5 * s * (1.0 - tint)]
+    });
+    let lum = |d: &Decomposition, x: u32| d.reflectance.get(x, 5).iter().sum::<f32>();
+    let spread = |d: &Decomposition| lum(d, 36) / lum(d, 3);
+    let plain = retinex_with(&img, &Strokes::default());
+    assert!(spread(&plain) > 2.0, "{}", spread(&plain));
+    let d = retinex_with(
+        &img,
+        &Strokes {
+            constant_albedo: vec![Mask::full(40, 10)],
+            ..Default::default()
+        },
+    );
+    assert!((spread(&d) - 1.0).abs() < 0.1, "{}", spread(&d));
+}
+
+#[test]
+fn retinex_local_threshold_region_changes_the_chroma_test() {
+    // Mild chroma jitter: below T everywhere, but T' = 0.05 × its mean rejects most pairs.
+    let img = Image::from_fn(40, 32, |x, y| {
+        let t = 0.003 * ((x * 7 + y * 13) % 5) as f32;
+        [0.5 + t, 0.5, 0.5 - t]
+    });
+    let run = |strokes: &Strokes| {
+        retinex::decompose(&img, None, strokes, &RetinexParams::default(), &mut |_| {})
+            .unwrap()
+            .1
+    };
+    let plain = run(&Strokes::default());
+    let local = run(&Strokes {
+        local_threshold: vec![Mask::full(40, 32)],
+        ..Default::default()
+    });
+    assert!(
+        local.equal_chroma_pairs * 2 < plain.equal_chroma_pairs,
+        "{} vs {}",
+        local.equal_chroma_pairs,
+        plain.equal_chroma_pairs
     );
 }
