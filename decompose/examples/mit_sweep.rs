@@ -1,5 +1,6 @@
 //! Parameter sweep of the clustering method on an MIT-style folder (development aid):
-//! `cargo run --release --example mit_sweep -- DIR`. Prints the mean LMSE per setting.
+//! `cargo run --release --example mit_sweep -- DIR [color-retinex]`. Prints the mean LMSE per
+//! setting of the clustering method, or of Color Retinex's two thresholds.
 
 use decompose::clustering::{self, ClusteringParams};
 use decompose::io::{self, LoadOptions};
@@ -32,51 +33,67 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let variants: Vec<(String, ClusteringParams)> = vec![
         ("default".into(), base.clone()),
         (
-            "skip=2".into(),
+            "median=1".into(),
             ClusteringParams {
-                border_skip: 2,
+                median_size: 1,
                 ..base.clone()
             },
         ),
         (
-            "skip=3".into(),
+            "median=9".into(),
             ClusteringParams {
-                border_skip: 3,
+                median_size: 9,
                 ..base.clone()
             },
         ),
         (
-            "skip=4".into(),
+            "D=0.005".into(),
             ClusteringParams {
-                border_skip: 4,
+                merge_threshold: 0.005,
                 ..base.clone()
             },
         ),
         (
-            "skip=2,win=5".into(),
+            "p=50".into(),
             ClusteringParams {
-                border_skip: 2,
-                border_window: 5,
+                min_cluster_pixels: 50,
                 ..base.clone()
             },
         ),
         (
-            "skip=3,win=5".into(),
+            "t_l=0".into(),
             ClusteringParams {
-                border_skip: 3,
-                border_window: 5,
+                t_l: 0.0,
                 ..base.clone()
             },
         ),
         (
-            "skip=2,thin=1".into(),
+            "lambda=0".into(),
             ClusteringParams {
-                border_skip: 2,
-                thin_ratio: 1.0,
+                lambda_fraction: 0.0,
                 ..base.clone()
             },
         ),
     ];
+    if std::env::args().nth(2).as_deref() == Some("color-retinex") {
+        use decompose::color_retinex::{self, ColorRetinexParams};
+        for g in [0.075, 0.5, 1.0, 2.0] {
+            for c in [0.01, 0.03, 0.04, 0.06] {
+                let p = ColorRetinexParams {
+                    threshold_gray: g,
+                    threshold_color: c,
+                    ..Default::default()
+                };
+                let mut sum = 0.0;
+                for (_, input, gr, gs, mask) in &objects {
+                    let (d, _) = color_retinex::decompose(input, Some(mask), &p, &mut |_| {})?;
+                    sum += metrics::score(&d.reflectance, &d.shading, gr, gs, mask)?.lmse;
+                }
+                println!("gray {g} color {c}: mean {:.4}", sum / objects.len() as f64);
+            }
+        }
+        return Ok(());
+    }
     for (name, p) in variants {
         let mut line = String::new();
         let mut sum = 0.0;
