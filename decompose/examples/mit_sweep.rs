@@ -31,46 +31,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     objects.sort_by(|a, b| a.0.cmp(&b.0));
     let base = ClusteringParams::default();
     let variants: Vec<(String, ClusteringParams)> = vec![
-        ("default".into(), base.clone()),
         (
-            "median=1".into(),
+            "bridge=0.5".into(),
             ClusteringParams {
-                median_size: 1,
+                bridge_ratio: 0.5,
                 ..base.clone()
             },
         ),
         (
-            "median=9".into(),
+            "bridge=0.6".into(),
             ClusteringParams {
-                median_size: 9,
+                bridge_ratio: 0.6,
                 ..base.clone()
             },
         ),
         (
-            "D=0.005".into(),
+            "bridge=0.8".into(),
             ClusteringParams {
-                merge_threshold: 0.005,
-                ..base.clone()
-            },
-        ),
-        (
-            "p=50".into(),
-            ClusteringParams {
-                min_cluster_pixels: 50,
-                ..base.clone()
-            },
-        ),
-        (
-            "t_l=0".into(),
-            ClusteringParams {
-                t_l: 0.0,
-                ..base.clone()
-            },
-        ),
-        (
-            "lambda=0".into(),
-            ClusteringParams {
-                lambda_fraction: 0.0,
+                bridge_ratio: 0.8,
                 ..base.clone()
             },
         ),

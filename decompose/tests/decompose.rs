@@ -684,3 +684,32 @@ fn retinex_local_threshold_region_changes_the_chroma_test() {
         plain.equal_chroma_pairs
     );
 }
+
+#[test]
+fn one_pixel_fringe_keeps_the_albedo_ratio() {
+    // Albedo A | one column mixing A and B | albedo B, constant light. The mixed column is a
+    // thin cluster of its own (bridged by default); the albedo step must stay in the
+    // reflectance either way. (The bridge's gain shows on real edges: MIT `dinosaur`.)
+    let [a, b] = FIG21_ALBEDO;
+    let refl = Image::from_fn(64, 9, |x, _| match x {
+        0..=30 => a,
+        31 => [0.0, 1.0, 2.0].map(|c: f32| 0.5 * (a[c as usize] + b[c as usize])),
+        _ => b,
+    });
+    let mut input = refl.clone();
+    input.data_mut().iter_mut().for_each(|v| *v *= 0.7);
+    let ratio = |p: &ClusteringParams| {
+        let d = clustering::decompose(&input, None, p, &mut |_| {})
+            .unwrap()
+            .decomposition;
+        (d.reflectance.get(10, 4)[2] / d.reflectance.get(50, 4)[2]) / (a[2] / b[2])
+    };
+    // The mixed column is bridged by default; with or without the bridge the ratio holds.
+    for bridge_ratio in [0.8, 0.0] {
+        let r = ratio(&ClusteringParams {
+            bridge_ratio,
+            ..Default::default()
+        });
+        assert!((r - 1.0).abs() < 0.03, "bridge {bridge_ratio}: {r}");
+    }
+}

@@ -42,9 +42,12 @@
 //!   its segment nearest in mean luminance (within `T_L`), rather than to all of them, which
 //!   keeps the normal matrix sparse on textured images with thousands of clusters.
 //! - Mixed (anti-aliased) pixels at albedo edges: the border window starts `border_skip` (2)
-//!   pixels away from the border where the cluster is thick enough. Optionally
-//!   (`thin_ratio`, off by default) thin fringe clusters that k-means cuts between two albedos
-//!   join their neighbour of closest chroma.
+//!   pixels away from the border where the cluster is thick enough. k-means also cuts thin
+//!   fringe clusters between two albedos; in a chain albedo | fringe | albedo the two border
+//!   equations carry the whole albedo step into the shading. Such strips (`bridge_ratio`) are
+//!   bridged: the clusters on both sides get a direct border equation across the strip (the
+//!   walk crosses at most 4 pixels) and the strip's own border equations get weight 10⁻³.
+//!   Optionally (`thin_ratio`, off by default) strips are merged into a neighbour instead.
 //! - Defaults of these additions were chosen on the MIT development objects (see the
 //!   parameter docs); the thesis parameters keep their published values.
 //! - k-means fits its centres on a seeded subsample (see [`crate::kmeans`]).
@@ -341,42 +344,105 @@ pub fn decompose(
         .map(|(e, (key, _))| (*key, e))
         .collect();
     let mut edge_diffs: Vec<Vec<f64>> = vec![Vec::new(); borders.len()];
+    // Thin clusters (strips about `bridge_ratio` pixels wide: anti-aliased fringes) are
+    // bridged: the clusters on both sides get a direct equation across the strip.
+    let thin: Vec<bool> = {
+        let mut border_total = vec![0usize; count];
+        for ((a, b), bd) in &borders {
+            border_total[*a as usize] += bd.pairs;
+            border_total[*b as usize] += bd.pairs;
+        }
+        (0..count)
+            .map(|c| {
+                params.bridge_ratio > 0.0
+                    && (regions[c].pixels as f64)
+                        < params.bridge_ratio as f64 * border_total[c] as f64
+            })
+            .collect()
+    };
+    let mut bridges: regions::PairMap<Vec<f64>> = regions::PairMap::default();
+    let at = |x: isize, yy: isize| -> Option<usize> {
+        (x >= 0 && yy >= 0 && x < w as isize && yy < h as isize)
+            .then(|| yy as usize * w + x as usize)
+    };
     for p in 0..labels.len() {
         let l = labels[p];
         if l == Labels::NONE {
             continue;
         }
-        for (q, dx, dy) in [(p + 1, 1isize, 0isize), (p + w, 0, 1)] {
-            if (dx == 1 && p % w + 1 >= w) || q >= labels.len() {
+        for (dx, dy) in [(1isize, 0isize), (-1, 0), (0, 1), (0, -1)] {
+            let (px0, py0) = ((p % w) as isize, (p / w) as isize);
+            let Some(q) = at(px0 + dx, py0 + dy) else {
                 continue;
-            }
+            };
             let m = labels[q];
             if m == Labels::NONE || m == l {
                 continue;
             }
+            if thin[m as usize] && !thin[l as usize] {
+                // Walk across the strip; bridge to the thick cluster beyond it.
+                let (mut x, mut yy) = (px0 + dx, py0 + dy);
+                for _ in 0..4 {
+                    x += dx;
+                    yy += dy;
+                    let Some(r) = at(x, yy) else { break };
+                    let k2 = labels[r];
+                    if k2 == m {
+                        continue;
+                    }
+                    if k2 != Labels::NONE && k2 != l && !thin[k2 as usize] {
+                        let yp = side_value(p, -dx, -dy, l);
+                        let yr = side_value(r, dx, dy, k2);
+                        let diff = if l < k2 { yr - yp } else { yp - yr };
+                        bridges
+                            .entry((l.min(k2), l.max(k2)))
+                            .or_default()
+                            .push(diff);
+                    }
+                    break;
+                }
+            }
+            // Ordinary border equation, each pair once (from its smaller pixel index).
+            if q < p {
+                continue;
+            }
+            let (sx, sy) = if q > p { (dx, dy) } else { (-dx, -dy) };
             // p's side goes away from q (−d), q's side goes away from p (+d).
-            let yp = side_value(p, -dx, -dy, l);
-            let yq = side_value(q, dx, dy, m);
+            let yp = side_value(p, -sx, -sy, l);
+            let yq = side_value(q, sx, sy, m);
             let diff = if l < m { yq - yp } else { yp - yq };
             edge_diffs[edge_index[&(l.min(m), l.max(m))]].push(diff);
         }
     }
+    let robust = |d: &mut Vec<f64>| {
+        if params.border_median {
+            let k = d.len() / 2;
+            *d.select_nth_unstable_by(k, f64::total_cmp).1
+        } else {
+            d.iter().sum::<f64>() / d.len() as f64
+        }
+    };
     for (e, ((a, b), border)) in borders.iter().enumerate() {
         let d = &mut edge_diffs[e];
         if d.is_empty() {
             continue;
         }
-        let rhs = if params.border_median {
-            let k = d.len() / 2;
-            *d.select_nth_unstable_by(k, f64::total_cmp).1
-        } else {
-            d.iter().sum::<f64>() / d.len() as f64
-        };
-        if sys.add(
-            &[(*a as usize, 1.0), (*b as usize, -1.0)],
-            rhs,
-            (border.pairs as f64).powf(params.border_weight_exponent as f64),
-        ) {
+        let rhs = robust(d);
+        let mut weight = (border.pairs as f64).powf(params.border_weight_exponent as f64);
+        if thin[*a as usize] || thin[*b as usize] {
+            // A fringe only needs a value; its borders must not carry the albedo step.
+            weight *= 1e-3;
+        }
+        if sys.add(&[(*a as usize, 1.0), (*b as usize, -1.0)], rhs, weight) {
+            info.equations.boundary += 1;
+        }
+    }
+    let mut bridge_list: Vec<_> = bridges.into_iter().collect();
+    bridge_list.sort_unstable_by_key(|b| b.0);
+    for ((a, b), mut d) in bridge_list {
+        let rhs = robust(&mut d);
+        let weight = (d.len() as f64 / 2.0).powf(params.border_weight_exponent as f64);
+        if sys.add(&[(a as usize, 1.0), (b as usize, -1.0)], rhs, weight) {
             info.equations.boundary += 1;
         }
     }
