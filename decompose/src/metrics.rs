@@ -281,5 +281,6 @@ mod tests {
         let v = whdr(&r, j, 0.1).unwrap();
         assert!((v - 0.75).abs() < 1e-12, "{v}");
         assert!(whdr(&r, "{}", 0.1).is_err());
+        assert!(whdr(&Image::new(0, 0, 3), j, 0.1).is_err());
     }
 }
