@@ -169,6 +169,12 @@ pub fn whdr(reflectance: &Image, judgements: &str, delta: f64) -> Result<f64> {
         path: Path::new("<judgements>").to_path_buf(),
         message: m.to_string(),
     };
+    if reflectance.is_empty() {
+        return Err(Error::EmptyImage {
+            width: reflectance.width(),
+            height: reflectance.height(),
+        });
+    }
     let v: serde_json::Value = serde_json::from_str(judgements).map_err(|e| fmt(&e.to_string()))?;
     let points = v["intrinsic_points"]
         .as_array()
