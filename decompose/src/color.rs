@@ -23,13 +23,15 @@ pub fn linear_to_srgb(v: f32) -> f32 {
     }
 }
 
-/// Relative luminance Y of a linear Rec.709/sRGB pixel.
+/// Relative luminance Y of a linear Rec.709/sRGB pixel (computed in f64 and clamped to the
+/// f32 range, so extreme inputs cannot overflow to infinity).
 pub fn luminance(p: [f32; 3]) -> f32 {
-    0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]
+    let y = 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
+    y.clamp(-(f32::MAX as f64), f32::MAX as f64) as f32
 }
 
-fn lab_f(t: f32) -> f32 {
-    const D: f32 = 6.0 / 29.0;
+fn lab_f(t: f64) -> f64 {
+    const D: f64 = 6.0 / 29.0;
     if t > D * D * D {
         t.cbrt()
     } else {
@@ -37,14 +39,15 @@ fn lab_f(t: f32) -> f32 {
     }
 }
 
-/// Linear sRGB (D65, white = 1) to CIELab (L* in [0, 100]).
+/// Linear sRGB (D65, white = 1) to CIELab (L* in [0, 100]); computed in f64 so that extreme
+/// inputs stay finite.
 pub fn linear_to_lab(p: [f32; 3]) -> [f32; 3] {
-    let [r, g, b] = p.map(|v| v.max(0.0));
+    let [r, g, b] = p.map(|v| v.max(0.0) as f64);
     let x = (0.412_456_4 * r + 0.357_576_1 * g + 0.180_437_5 * b) / 0.950_47;
     let y = 0.212_672_9 * r + 0.715_152_2 * g + 0.072_175 * b;
     let z = (0.019_333_9 * r + 0.119_192 * g + 0.950_304_1 * b) / 1.088_83;
     let (fx, fy, fz) = (lab_f(x), lab_f(y), lab_f(z));
-    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
+    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)].map(|v| v as f32)
 }
 
 /// RGB in [0, 1] to (hue in degrees [0, 360), saturation, value).

@@ -96,8 +96,8 @@ pub fn kmeans<const D: usize>(
     let mut d2: Vec<f64> = sample.iter().map(|p| nearest(p, &centres).1).collect();
     while centres.len() < k {
         let total: f64 = d2.iter().sum();
-        if total <= 0.0 {
-            break; // fewer distinct points than k
+        if !(total.is_finite() && total > 0.0) {
+            break; // fewer distinct points than k (or distances beyond f64)
         }
         let mut t = rng.random_range(0.0..total);
         let mut pick = d2.len() - 1;

@@ -713,3 +713,22 @@ fn one_pixel_fringe_keeps_the_albedo_ratio() {
         assert!((r - 1.0).abs() < 0.03, "bridge {bridge_ratio}: {r}");
     }
 }
+
+#[test]
+fn tiny_and_extreme_images_do_not_panic() {
+    let cases = [
+        Image::from_fn(1, 1, |_, _| [0.5f32, 0.2, 0.1]),
+        Image::from_fn(1, 7, |_, y| [0.1 * y as f32, 0.5, 0.5]),
+        Image::from_fn(9, 1, |x, _| [0.5, 0.1 * x as f32, 0.5]),
+        Image::from_fn(6, 5, |x, y| {
+            [1e30 * (x + 1) as f32, 1e-30 * y as f32, 1e-40]
+        }),
+        Image::from_fn(6, 5, |x, _| [if x == 0 { f32::MAX } else { 0.0 }; 3]),
+    ];
+    for img in &cases {
+        for d in [clustering(img), retinex(img), color_retinex(img)] {
+            assert!(d.reflectance.data().iter().all(|v| v.is_finite()));
+            assert!(d.shading.data().iter().all(|v| v.is_finite()));
+        }
+    }
+}
