@@ -30,29 +30,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     objects.sort_by(|a, b| a.0.cmp(&b.0));
     let base = ClusteringParams::default();
-    let variants: Vec<(String, ClusteringParams)> = vec![
-        (
-            "bridge=0.5".into(),
-            ClusteringParams {
-                bridge_ratio: 0.5,
-                ..base.clone()
-            },
-        ),
-        (
-            "bridge=0.6".into(),
-            ClusteringParams {
-                bridge_ratio: 0.6,
-                ..base.clone()
-            },
-        ),
-        (
-            "bridge=0.8".into(),
-            ClusteringParams {
-                bridge_ratio: 0.8,
-                ..base.clone()
-            },
-        ),
-    ];
+    // Defaults under five k-means seeds: the spread shows how much of a difference between
+    // settings is initialisation noise.
+    let variants: Vec<(String, ClusteringParams)> = (0..5)
+        .map(|seed| {
+            (
+                format!("seed={seed}"),
+                ClusteringParams {
+                    seed,
+                    ..base.clone()
+                },
+            )
+        })
+        .collect();
     if std::env::args().nth(2).as_deref() == Some("color-retinex") {
         use decompose::color_retinex::{self, ColorRetinexParams};
         for g in [0.075, 0.5, 1.0, 2.0] {

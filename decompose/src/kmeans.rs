@@ -27,6 +27,11 @@ pub struct KMeansParams {
     pub sample: usize,
     /// Random seed. Default 0.
     pub seed: u64,
+    /// Independent seedings; the one with the lowest objective on the sample wins. Default 1.
+    /// (On the MIT development objects, 3 restarts narrowed the spread of the clustering
+    /// method's mean LMSE over five seeds from 0.0246–0.0299 to 0.0262–0.0291 without
+    /// changing its average, 0.027, so the faster single run stays the default.)
+    pub restarts: usize,
 }
 
 impl Default for KMeansParams {
@@ -37,6 +42,7 @@ impl Default for KMeansParams {
             tolerance: 1e-4,
             sample: 20_000,
             seed: 0,
+            restarts: 1,
         }
     }
 }
@@ -90,6 +96,39 @@ pub fn kmeans<const D: usize>(
             .collect()
     };
     let k = params.k.min(sample.len());
+    // Several seedings, keep the lowest objective on the sample (like scikit-learn's n_init):
+    // a single k-means++ draw leaves the segmentation, and so the decomposition, at the mercy
+    // of the seed.
+    let mut best: Option<(Vec<[f64; D]>, KMeansInfo, f64)> = None;
+    for _ in 0..params.restarts.max(1) {
+        let run = fit(&sample, k, &mut rng, params);
+        if best.as_ref().is_none_or(|b| run.2 < b.2) {
+            best = Some(run);
+        }
+    }
+    let Some((centres, mut info, _)) = best else {
+        return Err(Error::EmptyMask);
+    };
+    let assigned: Vec<(u32, f64)> = points.par_iter().map(|p| nearest(p, &centres)).collect();
+    let mut used = vec![false; centres.len()];
+    let mut obj = 0.0;
+    for (l, d) in &assigned {
+        used[*l as usize] = true;
+        obj += d;
+    }
+    info.objective = obj / points.len() as f64;
+    info.clusters = used.iter().filter(|&&u| u).count();
+    Ok((assigned.into_iter().map(|a| a.0).collect(), centres, info))
+}
+
+/// One k-means++ seeding and Lloyd run on `sample`; returns the centres, the report and the
+/// mean squared distance on the sample.
+fn fit<const D: usize>(
+    sample: &[[f32; D]],
+    k: usize,
+    rng: &mut ChaCha8Rng,
+    params: &KMeansParams,
+) -> (Vec<[f64; D]>, KMeansInfo, f64) {
     // k-means++ seeding.
     let to64 = |p: &[f32; D]| p.map(|v| v as f64);
     let mut centres = vec![to64(&sample[rng.random_range(0..sample.len())])];
@@ -109,7 +148,7 @@ pub fn kmeans<const D: usize>(
             t -= d;
         }
         let c = to64(&sample[pick]);
-        for (d, p) in d2.iter_mut().zip(&sample) {
+        for (d, p) in d2.iter_mut().zip(sample) {
             let nd: f64 = (0..D).map(|t| (p[t] as f64 - c[t]).powi(2)).sum();
             *d = d.min(nd);
         }
@@ -161,16 +200,12 @@ pub fn kmeans<const D: usize>(
             break;
         }
     }
-    let assigned: Vec<(u32, f64)> = points.par_iter().map(|p| nearest(p, &centres)).collect();
-    let mut used = vec![false; centres.len()];
-    let mut obj = 0.0;
-    for (l, d) in &assigned {
-        used[*l as usize] = true;
-        obj += d;
-    }
-    info.objective = obj / points.len() as f64;
-    info.clusters = used.iter().filter(|&&u| u).count();
-    Ok((assigned.into_iter().map(|a| a.0).collect(), centres, info))
+    let obj = sample
+        .par_iter()
+        .map(|p| nearest(p, &centres).1)
+        .sum::<f64>()
+        / sample.len() as f64;
+    (centres, info, obj)
 }
 
 #[cfg(test)]
