@@ -232,6 +232,16 @@ fn main() -> Result<()> {
     }
 }
 
+/// Writes to stdout, turning a closed pipe into an error instead of a panic.
+fn out(text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut stdout = std::io::stdout().lock();
+    stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+        .context("writing to standard output")
+}
+
 fn bar(quiet: bool) -> ProgressBar {
     if quiet {
         return ProgressBar::hidden();
@@ -487,28 +497,32 @@ fn run_eval(a: EvalArgs) -> Result<()> {
     for r in results.values_mut() {
         r.mean = mean(&r.objects);
     }
-    // Table: LMSE per object and method, then si-MSE.
+    // Table: LMSE per object and method, then si-MSE. Built as a string and written once, so
+    // a closed stdout (e.g. `| head`) is an error message, not a panic.
+    use std::fmt::Write as _;
     let names: Vec<&str> = methods.iter().map(|m| m.name()).collect();
+    let mut table = String::new();
     for (title, pick) in [
         ("LMSE (Grosse et al., 20x20 windows, stride 10)", 0),
         ("scale-invariant MSE (whole image)", 1),
     ] {
-        println!("\n{title}");
-        print!("{:<12}", "object");
+        writeln!(table, "\n{title}")?;
+        write!(table, "{:<12}", "object")?;
         for n in &names {
-            print!(" {n:>14}");
+            write!(table, " {n:>14}")?;
         }
-        println!();
-        let row = |label: &str, get: &dyn Fn(&MethodResult) -> Option<Scores>| {
-            print!("{label:<12}");
+        writeln!(table)?;
+        let mut row = |label: &str, get: &dyn Fn(&MethodResult) -> Option<Scores>| {
+            let mut line = format!("{label:<12}");
             for n in &names {
                 let v = results
                     .get(n)
                     .and_then(get)
                     .map_or(f64::NAN, |s| if pick == 0 { s.lmse } else { s.si_mse });
-                print!(" {v:>14.5}");
+                line += &format!(" {v:>14.5}");
             }
-            println!();
+            table += &line;
+            table.push('\n');
         };
         for obj in results
             .values()
@@ -520,6 +534,7 @@ fn run_eval(a: EvalArgs) -> Result<()> {
         }
         row("mean", &|r: &MethodResult| Some(r.mean.clone()));
     }
+    out(&table)?;
     if let Some(p) = a.json {
         std::fs::write(&p, serde_json::to_string_pretty(&results)?)
             .with_context(|| format!("writing {}", p.display()))?;
@@ -622,7 +637,7 @@ fn run_whdr(a: WhdrArgs) -> Result<()> {
     let json = std::fs::read_to_string(&a.judgements)
         .with_context(|| format!("reading {}", a.judgements.display()))?;
     let v = metrics::whdr(&run.decomposition.reflectance, &json, a.delta)?;
-    println!("WHDR({:.2}) = {v:.4}", a.delta);
+    out(&format!("WHDR({:.2}) = {v:.4}\n", a.delta))?;
     Ok(())
 }
 
@@ -648,10 +663,10 @@ fn run_bench(a: BenchArgs) -> Result<()> {
         ("coffee 640x480", coffee.resize(640, 480), 10usize, 0.3),
         ("astronaut 1024x1024", astronaut.resize(1024, 1024), 30, 2.0),
     ];
-    println!(
-        "{:<22} {:>4} {:>9} {:>9} {:>10} {:>10} {:>8} {:>11}",
+    out(&format!(
+        "{:<22} {:>4} {:>9} {:>9} {:>10} {:>10} {:>8} {:>11}\n",
         "case", "k", "clusters", "eqs", "best (s)", "target (s)", "ratio", "peak RSS MiB"
-    );
+    ))?;
     for (name, img, k, target) in cases {
         let params = ClusteringParams {
             k,
@@ -669,8 +684,8 @@ fn run_bench(a: BenchArgs) -> Result<()> {
         }
         let info = info.unwrap_or_default();
         let eqs = info.equations.boundary + info.equations.reflectance;
-        println!(
-            "{:<22} {:>4} {:>9} {:>9} {:>10.3} {:>10.1} {:>8.2} {:>11.0}",
+        out(&format!(
+            "{:<22} {:>4} {:>9} {:>9} {:>10.3} {:>10.1} {:>8.2} {:>11.0}\n",
             name,
             k,
             info.clusters,
@@ -679,7 +694,7 @@ fn run_bench(a: BenchArgs) -> Result<()> {
             target,
             best / target,
             peak_rss_mib().unwrap_or(f64::NAN)
-        );
+        ))?;
     }
     Ok(())
 }
