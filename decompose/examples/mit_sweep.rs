@@ -1,6 +1,6 @@
 //! Parameter sweep of the clustering method on an MIT-style folder (development aid):
-//! `cargo run --release --example mit_sweep -- DIR [color-retinex]`. Prints the mean LMSE per
-//! setting of the clustering method, or of Color Retinex's two thresholds.
+//! `cargo run --release --example mit_sweep -- DIR [retinex|color-retinex]`. Prints the mean LMSE per
+//! setting of the clustering method, of Retinex, or of Color Retinex's two thresholds.
 
 use decompose::clustering::{self, ClusteringParams};
 use decompose::io::{self, LoadOptions};
@@ -43,6 +43,67 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             )
         })
         .collect();
+    if std::env::args().nth(2).as_deref() == Some("retinex") {
+        use decompose::retinex::{self, RetinexParams, Strokes};
+        let b = RetinexParams::default();
+        let variants = [
+            ("default", b.clone()),
+            (
+                "omega=3",
+                RetinexParams {
+                    omega: 3.0,
+                    ..b.clone()
+                },
+            ),
+            (
+                "omega=10",
+                RetinexParams {
+                    omega: 10.0,
+                    ..b.clone()
+                },
+            ),
+            (
+                "omega=1",
+                RetinexParams {
+                    omega: 1.0,
+                    ..b.clone()
+                },
+            ),
+            (
+                "omega=0.3",
+                RetinexParams {
+                    omega: 0.3,
+                    ..b.clone()
+                },
+            ),
+            (
+                "omega=10,t=1e-4",
+                RetinexParams {
+                    omega: 10.0,
+                    t: 1e-4,
+                    ..b.clone()
+                },
+            ),
+            (
+                "omega=10,t=3e-3",
+                RetinexParams {
+                    omega: 10.0,
+                    t: 3e-3,
+                    ..b.clone()
+                },
+            ),
+        ];
+        for (name, p) in variants {
+            let mut sum = 0.0;
+            for (_, input, gr, gs, mask) in &objects {
+                let (d, _) =
+                    retinex::decompose(input, Some(mask), &Strokes::default(), &p, &mut |_| {})?;
+                sum += metrics::score(&d.reflectance, &d.shading, gr, gs, mask)?.lmse;
+            }
+            println!("{name:<12} mean {:.4}", sum / objects.len() as f64);
+        }
+        return Ok(());
+    }
     if std::env::args().nth(2).as_deref() == Some("color-retinex") {
         use decompose::color_retinex::{self, ColorRetinexParams};
         for g in [0.075, 0.5, 1.0, 2.0] {
