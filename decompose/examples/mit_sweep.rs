@@ -30,19 +30,59 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     objects.sort_by(|a, b| a.0.cmp(&b.0));
     let base = ClusteringParams::default();
-    // Defaults under five k-means seeds: the spread shows how much of a difference between
-    // settings is initialisation noise.
-    let variants: Vec<(String, ClusteringParams)> = (0..5)
-        .map(|seed| {
+    let variants: Vec<(String, ClusteringParams)> = match std::env::args().nth(2).as_deref() {
+        Some("probe") => vec![
+            ("default".into(), base.clone()),
             (
-                format!("seed={seed}"),
+                "t_l=0".into(),
                 ClusteringParams {
-                    seed,
+                    t_l: 0.0,
                     ..base.clone()
                 },
-            )
-        })
-        .collect();
+            ),
+            (
+                "partners=2".into(),
+                ClusteringParams {
+                    max_reflectance_partners: 2,
+                    ..base.clone()
+                },
+            ),
+            (
+                "median=9".into(),
+                ClusteringParams {
+                    median_size: 9,
+                    ..base.clone()
+                },
+            ),
+            (
+                "l_max=1".into(),
+                ClusteringParams {
+                    l_max_fraction: 1.0,
+                    ..base.clone()
+                },
+            ),
+            (
+                "l_min=0.05".into(),
+                ClusteringParams {
+                    l_min_fraction: 0.05,
+                    ..base.clone()
+                },
+            ),
+        ],
+        // Defaults under five k-means seeds: the spread shows how much of a difference between
+        // settings is initialisation noise.
+        _ => (0..5)
+            .map(|seed| {
+                (
+                    format!("seed={seed}"),
+                    ClusteringParams {
+                        seed,
+                        ..base.clone()
+                    },
+                )
+            })
+            .collect(),
+    };
     if std::env::args().nth(2).as_deref() == Some("retinex") {
         use decompose::retinex::{self, RetinexParams, Strokes};
         let b = RetinexParams::default();
