@@ -221,7 +221,18 @@ struct BenchArgs {
     repeat: usize,
 }
 
-fn main() -> Result<()> {
+fn main() -> std::process::ExitCode {
+    // One line with the whole cause chain; no backtrace noise even when RUST_BACKTRACE is set.
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Image(a) => run_image(a),
@@ -345,6 +356,11 @@ fn run_image(a: ImageArgs) -> Result<()> {
         .as_ref()
         .map(|p| io::load_mask(p).with_context(|| format!("reading mask {}", p.display())))
         .transpose()?;
+    if let (Some(m), Some(p)) = (&mask, &a.opts.mask) {
+        input
+            .check_dims(m.dims())
+            .with_context(|| format!("mask {} does not fit the image", p.display()))?;
+    }
     let pb = bar(a.quiet);
     let run = run_method(&input, mask.as_ref(), &a.opts, &pb)?;
     pb.finish_and_clear();
