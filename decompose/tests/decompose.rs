@@ -732,3 +732,63 @@ fn tiny_and_extreme_images_do_not_panic() {
         }
     }
 }
+
+/// Golden-image regression of the clustering reflectance on a real photo (8-bit sRGB PNG).
+/// Passes when at most 1 % of the samples differ by more than 3/255. `UPDATE_GOLDEN=1`
+/// rewrites the golden file deliberately; on failure `target/golden-failures/` receives
+/// expected | diff | actual side by side.
+#[test]
+fn golden_clustering_reflectance_chelsea() {
+    use decompose::io::{Depth, Encoding, save};
+    let photo = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../fixtures/photos/chelsea.jpg"
+    );
+    let golden = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/golden/chelsea-96x64-reflectance.png");
+    let img = decompose::io::load_rgb(photo, Default::default())
+        .unwrap()
+        .resize(96, 64);
+    let d = clustering(&img);
+    if std::env::var_os("UPDATE_GOLDEN").is_some() {
+        save(&golden, &d.reflectance, Encoding::Srgb, Depth::Eight).unwrap();
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let actual_path = dir.path().join("actual.png");
+    save(&actual_path, &d.reflectance, Encoding::Srgb, Depth::Eight).unwrap();
+    let actual = image::open(&actual_path).unwrap().to_rgb8();
+    let expected = image::open(&golden)
+        .expect("golden file missing: run with UPDATE_GOLDEN=1")
+        .to_rgb8();
+    assert_eq!(actual.dimensions(), expected.dimensions());
+    let (mut bad, mut total) = (0usize, 0usize);
+    let mut diff = image::RgbImage::new(96, 64);
+    for ((a, e), dpx) in actual
+        .pixels()
+        .zip(expected.pixels())
+        .zip(diff.pixels_mut())
+    {
+        for c in 0..3 {
+            let delta = (a.0[c] as i32 - e.0[c] as i32).unsigned_abs();
+            total += 1;
+            if delta > 3 {
+                bad += 1;
+            }
+            dpx.0[c] = (delta * 8).min(255) as u8;
+        }
+    }
+    if bad * 100 > total {
+        let out =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/golden-failures");
+        let _ = std::fs::create_dir_all(&out);
+        let mut side = image::RgbImage::new(96 * 3, 64);
+        for (i, im) in [&expected, &diff, &actual].into_iter().enumerate() {
+            image::imageops::replace(&mut side, im, 96 * i as i64, 0);
+        }
+        let _ = side.save(out.join("chelsea-96x64-reflectance.png"));
+        panic!(
+            "{bad} of {total} samples differ by more than 3/255 (see {})",
+            out.display()
+        );
+    }
+}
