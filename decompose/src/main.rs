@@ -675,9 +675,32 @@ fn run_bench(a: BenchArgs) -> Result<()> {
         Path::new("coffee.jpg"),
         LoadOptions::default(),
     )?;
+    let chelsea = io::decode_rgb(
+        include_bytes!("../../fixtures/photos/chelsea.jpg"),
+        Path::new("chelsea.jpg"),
+        LoadOptions::default(),
+    )?;
+    // A busier 1024x1024 image: the three photos and a mirrored astronaut as 512x512 quadrants.
+    let quads = [
+        astronaut.resize(512, 512),
+        coffee.resize(512, 512),
+        chelsea.resize(512, 512),
+        astronaut.resize(512, 512),
+    ];
+    let mosaic = Image::from_fn(1024, 1024, |x, y| {
+        let q = &quads[(y / 512 * 2 + x / 512) as usize];
+        let (qx, qy) = if y >= 512 && x >= 512 {
+            (511 - x % 512, y % 512)
+        } else {
+            (x % 512, y % 512)
+        };
+        let p = q.get(qx, qy);
+        [p[0], p[1], p[2]]
+    });
     let cases = [
         ("coffee 640x480", coffee.resize(640, 480), 10usize, 0.3),
         ("astronaut 1024x1024", astronaut.resize(1024, 1024), 30, 2.0),
+        ("mosaic 1024x1024", mosaic, 30, 2.0),
     ];
     out(&format!(
         "{:<22} {:>4} {:>9} {:>9} {:>10} {:>10} {:>8} {:>11}\n",
