@@ -1,0 +1,179 @@
+//! Parameter sweep of the clustering method on an MIT-style folder (development aid):
+//! `cargo run --release --example mit_sweep -- DIR [retinex|color-retinex]`. Prints the mean LMSE per
+//! setting of the clustering method, of Retinex, or of Color Retinex's two thresholds.
+
+use decompose::clustering::{self, ClusteringParams};
+use decompose::io::{self, LoadOptions};
+use decompose::metrics;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let dir = std::env::args().nth(1).ok_or("usage: mit_sweep DIR")?;
+    let lin = LoadOptions {
+        linear: true,
+        ..Default::default()
+    };
+    let mut objects = Vec::new();
+    for e in std::fs::read_dir(&dir)? {
+        let p = e?.path();
+        if p.join("reflectance.png").exists() {
+            objects.push((
+                p.file_name()
+                    .unwrap_or_default()
+                    .to_string_lossy()
+                    .into_owned(),
+                io::load_rgb(p.join("diffuse.png"), lin)?,
+                io::load_rgb(p.join("reflectance.png"), lin)?,
+                io::load_gray(p.join("shading.png"), lin)?,
+                io::load_mask(p.join("mask.png"))?,
+            ));
+        }
+    }
+    objects.sort_by(|a, b| a.0.cmp(&b.0));
+    let base = ClusteringParams::default();
+    let variants: Vec<(String, ClusteringParams)> = match std::env::args().nth(2).as_deref() {
+        Some("probe") => vec![
+            ("default".into(), base.clone()),
+            (
+                "t_l=0".into(),
+                ClusteringParams {
+                    t_l: 0.0,
+                    ..base.clone()
+                },
+            ),
+            (
+                "partners=2".into(),
+                ClusteringParams {
+                    max_reflectance_partners: 2,
+                    ..base.clone()
+                },
+            ),
+            (
+                "median=9".into(),
+                ClusteringParams {
+                    median_size: 9,
+                    ..base.clone()
+                },
+            ),
+            (
+                "l_max=1".into(),
+                ClusteringParams {
+                    l_max_fraction: 1.0,
+                    ..base.clone()
+                },
+            ),
+            (
+                "l_min=0.05".into(),
+                ClusteringParams {
+                    l_min_fraction: 0.05,
+                    ..base.clone()
+                },
+            ),
+        ],
+        // Defaults under five k-means seeds: the spread shows how much of a difference between
+        // settings is initialisation noise.
+        _ => (0..5)
+            .map(|seed| {
+                (
+                    format!("seed={seed}"),
+                    ClusteringParams {
+                        seed,
+                        ..base.clone()
+                    },
+                )
+            })
+            .collect(),
+    };
+    if std::env::args().nth(2).as_deref() == Some("retinex") {
+        use decompose::retinex::{self, RetinexParams, Strokes};
+        let b = RetinexParams::default();
+        let variants = [
+            ("default", b.clone()),
+            (
+                "omega=3",
+                RetinexParams {
+                    omega: 3.0,
+                    ..b.clone()
+                },
+            ),
+            (
+                "omega=10",
+                RetinexParams {
+                    omega: 10.0,
+                    ..b.clone()
+                },
+            ),
+            (
+                "omega=1",
+                RetinexParams {
+                    omega: 1.0,
+                    ..b.clone()
+                },
+            ),
+            (
+                "omega=0.3",
+                RetinexParams {
+                    omega: 0.3,
+                    ..b.clone()
+                },
+            ),
+            (
+                "omega=10,t=1e-4",
+                RetinexParams {
+                    omega: 10.0,
+                    t: 1e-4,
+                    ..b.clone()
+                },
+            ),
+            (
+                "omega=10,t=3e-3",
+                RetinexParams {
+                    omega: 10.0,
+                    t: 3e-3,
+                    ..b.clone()
+                },
+            ),
+        ];
+        for (name, p) in variants {
+            let mut sum = 0.0;
+            for (_, input, gr, gs, mask) in &objects {
+                let (d, _) =
+                    retinex::decompose(input, Some(mask), &Strokes::default(), &p, &mut |_| {})?;
+                sum += metrics::score(&d.reflectance, &d.shading, gr, gs, mask)?.lmse;
+            }
+            println!("{name:<12} mean {:.4}", sum / objects.len() as f64);
+        }
+        return Ok(());
+    }
+    if std::env::args().nth(2).as_deref() == Some("color-retinex") {
+        use decompose::color_retinex::{self, ColorRetinexParams};
+        for g in [0.075, 0.5, 1.0, 2.0] {
+            for c in [0.01, 0.03, 0.04, 0.06] {
+                let p = ColorRetinexParams {
+                    threshold_gray: g,
+                    threshold_color: c,
+                    ..Default::default()
+                };
+                let mut sum = 0.0;
+                for (_, input, gr, gs, mask) in &objects {
+                    let (d, _) = color_retinex::decompose(input, Some(mask), &p, &mut |_| {})?;
+                    sum += metrics::score(&d.reflectance, &d.shading, gr, gs, mask)?.lmse;
+                }
+                println!("gray {g} color {c}: mean {:.4}", sum / objects.len() as f64);
+            }
+        }
+        return Ok(());
+    }
+    for (name, p) in variants {
+        let mut line = String::new();
+        let mut sum = 0.0;
+        for (obj, input, gr, gs, mask) in &objects {
+            let out = clustering::decompose(input, Some(mask), &p, &mut |_| {})?;
+            let d = &out.decomposition;
+            let s = metrics::score(&d.reflectance, &d.shading, gr, gs, mask)?;
+            sum += s.lmse;
+            line += &format!(" {}={:.4}", &obj[..3.min(obj.len())], s.lmse);
+        }
+        println!("{name:<16} mean {:.4} |{line}", sum / objects.len() as f64);
+    }
+    Ok(())
+}

@@ -1,0 +1,126 @@
+//! The crate's single error type.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong in this crate. Variants carry the offending values.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be read or written.
+    #[error("cannot access {path}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// The image decoder or encoder failed (unsupported or corrupt file).
+    #[error("cannot decode or encode image {path}: {message}")]
+    Codec {
+        /// The file (empty for in-memory data).
+        path: PathBuf,
+        /// The decoder's message.
+        message: String,
+    },
+    /// An image with zero width or height.
+    #[error("image has zero size ({width}x{height})")]
+    EmptyImage {
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+    },
+    /// An image larger than the configured limit.
+    #[error("image of {width}x{height} pixels exceeds the limit of {limit} pixels")]
+    TooLarge {
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+        /// The maximum number of pixels accepted.
+        limit: u64,
+    },
+    /// A pixel holds NaN or an infinite value (float TIFF).
+    #[error("pixel ({x}, {y}) holds a non-finite value")]
+    NonFinite {
+        /// Column.
+        x: u32,
+        /// Row.
+        y: u32,
+    },
+    /// A pixel holds a negative value (float TIFF).
+    #[error("pixel ({x}, {y}) holds a negative value {value}")]
+    Negative {
+        /// Column.
+        x: u32,
+        /// Row.
+        y: u32,
+        /// The value.
+        value: f32,
+    },
+    /// The image (inside the mask) has no light at all: nothing to decompose.
+    #[error("image is black everywhere inside the mask (max value {max})")]
+    AllBlack {
+        /// Largest channel value found.
+        max: f32,
+    },
+    /// Two images that must share a size do not.
+    #[error("size mismatch: expected {expected:?}, got {got:?}")]
+    ShapeMismatch {
+        /// Expected (width, height).
+        expected: (u32, u32),
+        /// Actual (width, height).
+        got: (u32, u32),
+    },
+    /// The mask selects no pixel.
+    #[error("mask selects no pixel")]
+    EmptyMask,
+    /// A parameter is outside its valid range.
+    #[error("invalid parameter {name} = {value}: {reason}")]
+    InvalidParam {
+        /// The parameter's name.
+        name: &'static str,
+        /// Its value, formatted.
+        value: String,
+        /// What is required.
+        reason: &'static str,
+    },
+    /// The sparse factorisation failed (matrix not positive definite or out of memory).
+    #[error("linear solver failed on a {unknowns}-unknown system: {message}")]
+    Solver {
+        /// Number of unknowns.
+        unknowns: usize,
+        /// The factorisation's message.
+        message: String,
+    },
+    /// The solution did not reach the requested residual.
+    #[error(
+        "solver did not converge after {iterations} iterations (relative residual {residual:e})"
+    )]
+    NoConvergence {
+        /// Iterations performed.
+        iterations: usize,
+        /// Final relative residual.
+        residual: f64,
+    },
+    /// Malformed judgement file (IIW JSON) or other structured input.
+    #[error("malformed input {path}: {message}")]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// The crate's result type.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    pub(crate) fn param(name: &'static str, value: impl ToString, reason: &'static str) -> Self {
+        Error::InvalidParam {
+            name,
+            value: value.to_string(),
+            reason,
+        }
+    }
+}
