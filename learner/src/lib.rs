@@ -6,8 +6,8 @@
 //! terminal, no network.
 //!
 //! ```
-//! let svg = br#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10">
-//!   <circle cx="5" cy="5" r="4" fill="#e33" stroke="black" stroke-width="0.5"/></svg>"#;
+//! let svg = br##"<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10">
+//!   <circle cx="5" cy="5" r="4" fill="#e33" stroke="black" stroke-width="0.5"/></svg>"##;
 //! let canvas = learner::render::render_svg(svg)?;
 //! let features = learner::features::extract(canvas)?;
 //! assert_eq!(features.len(), learner::features::FEATURE_COUNT);
