@@ -1,2 +1,0 @@
-//! The `learner` command line.
-fn main() {}

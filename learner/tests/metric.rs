@@ -1,0 +1,206 @@
+//! End-to-end checks of the metric learner (issue 3): the simulated crowd, solver agreement,
+//! optimality, and the whole train → eval → rank path on files.
+
+use learner::eval::triplets::BootstrapParams;
+use learner::eval::{evaluate, predict};
+use learner::metric::cv::held_out_scores;
+use learner::metric::objective::{DEFAULT_SMOOTHING, FusedObjective, TripletObjective};
+use learner::metric::simulate::{Simulation, SimulationParams, simulate};
+use learner::metric::solver::{LbfgsParams, minimise_argmin, projected_gradient_norm};
+use learner::metric::train::{LambdaChoice, TrainParams, fit_uniform_scale, train};
+use learner::triplets::{Triplet, TripletSet};
+
+fn set(triplets: &[Triplet]) -> TripletSet {
+    TripletSet {
+        triplets: triplets.to_vec(),
+        skipped: 0,
+        skip_examples: vec![],
+        has_workers: true,
+    }
+}
+
+fn accuracy(p_one: &[f64], triplets: &[Triplet]) -> f64 {
+    let right = p_one
+        .iter()
+        .zip(triplets)
+        .filter(|(p, t)| (**p > 0.5) == t.q)
+        .count();
+    right as f64 / triplets.len() as f64
+}
+
+/// The issue's simulated crowd: 25,000 answers, 10% spammers, sparse `w*` on 6 of 40 features.
+fn crowd() -> Simulation {
+    simulate(&SimulationParams::default()).unwrap()
+}
+
+#[test]
+fn simulated_crowd_support_is_recovered_and_accuracy_matches_generator() {
+    let sim = crowd();
+    let params = TrainParams {
+        lambda: LambdaChoice::Fixed(50.0),
+        ..TrainParams::default()
+    };
+    let model = train(&sim.table, &set(&sim.triplets), &params, &mut |_| {}).unwrap();
+    assert!(model.solver.converged, "{:?}", model.solver);
+    let support: Vec<bool> = model.weights.iter().map(|w| *w > 0.0).collect();
+    let truth: Vec<bool> = sim.true_weights.iter().map(|w| *w > 0.0).collect();
+    assert_eq!(support, truth, "learned {:?}", model.weights);
+
+    let fresh = sim.fresh(20_000, 99);
+    let learned = accuracy(
+        &predict(&model, &sim.table, &fresh, &model.weights).unwrap(),
+        &fresh,
+    );
+    let generating: Vec<f64> = fresh
+        .iter()
+        .map(|t| sim.true_probability(t.a, t.b, t.c))
+        .collect();
+    let generating = accuracy(&generating, &fresh);
+    assert!(
+        learned >= generating - 0.02,
+        "learned {learned:.4} vs generating model {generating:.4}"
+    );
+}
+
+#[test]
+fn argmin_solution_satisfies_kkt() {
+    let sim = simulate(&SimulationParams {
+        triplets: 5000,
+        ..SimulationParams::default()
+    })
+    .unwrap();
+    let obj = TripletObjective::new(
+        &sim.features,
+        sim.dim,
+        &sim.triplets,
+        10.0,
+        DEFAULT_SMOOTHING,
+    );
+    let params = LbfgsParams {
+        ftol: 1e-14,
+        pgtol: 1e-7,
+        ..LbfgsParams::default()
+    };
+    let (w, info) = minimise_argmin(obj, vec![0.3; sim.dim], &params, &mut |_, _| {}).unwrap();
+    assert!(w.iter().all(|v| *v >= 0.0));
+    let mut g = vec![0.0; sim.dim];
+    let f = obj.eval(&w, &mut g);
+    assert!((f - info.objective).abs() <= 1e-12 * f);
+    // KKT for w ≥ 0: g_k = 0 where w_k > 0, g_k ≥ 0 where w_k = 0 (relative to the data term).
+    assert!(
+        projected_gradient_norm(&w, &g) <= 1e-4,
+        "{info:?} pg {}",
+        projected_gradient_norm(&w, &g)
+    );
+    assert!(info.evaluations < 100, "{info:?}");
+    // Perturbing any coordinate within the feasible set does not improve the objective.
+    let mut scratch = vec![0.0; sim.dim];
+    for k in 0..sim.dim {
+        for h in [1e-4, -1e-4] {
+            let mut wp = w.clone();
+            wp[k] = (wp[k] + h).max(0.0);
+            assert!(obj.eval(&wp, &mut scratch) >= f - 1e-9 * f, "k={k} h={h}");
+        }
+    }
+}
+
+#[cfg(feature = "nlopt")]
+#[test]
+fn argmin_and_nlopt_reach_the_same_optimum() {
+    use learner::metric::solver::minimise_nlopt;
+    for (seed, lambda) in [(3u64, 10.0), (4, 40.0)] {
+        let sim = simulate(&SimulationParams {
+            triplets: 4000,
+            seed,
+            ..SimulationParams::default()
+        })
+        .unwrap();
+        let obj = TripletObjective::new(
+            &sim.features,
+            sim.dim,
+            &sim.triplets,
+            lambda,
+            DEFAULT_SMOOTHING,
+        );
+        let params = LbfgsParams {
+            ftol: 1e-15,
+            pgtol: 1e-8,
+            max_iters: 2000,
+            ..LbfgsParams::default()
+        };
+        let c = fit_uniform_scale(&sim.features, sim.dim, &sim.triplets);
+        let w0 = vec![c; sim.dim];
+        let (wa, ia) = minimise_argmin(obj, w0.clone(), &params, &mut |_, _| {}).unwrap();
+        let (wn, inl) = minimise_nlopt(obj, w0, &params, &mut |_, _| {}).unwrap();
+        let rel = (ia.objective - inl.objective).abs() / inl.objective;
+        assert!(rel <= 1e-6, "objective {ia:?} vs {inl:?}");
+        let dw = wa
+            .iter()
+            .zip(&wn)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(dw <= 1e-3, "weights differ by {dw}: {wa:?} vs {wn:?}");
+    }
+}
+
+#[test]
+fn cross_validation_picks_a_lambda_and_beats_uniform() {
+    let sim = simulate(&SimulationParams {
+        triplets: 3000,
+        ..SimulationParams::default()
+    })
+    .unwrap();
+    let params = TrainParams {
+        lambda: LambdaChoice::Auto(None),
+        folds: 3,
+        grid_size: 3,
+        ..TrainParams::default()
+    };
+    let mut fits = 0;
+    let model = train(&sim.table, &set(&sim.triplets), &params, &mut |p| {
+        if let learner::metric::train::TrainProgress::Cv { .. } = p {
+            fits += 1
+        }
+    })
+    .unwrap();
+    assert_eq!(fits, 9);
+    let cv = model.cv.as_ref().unwrap();
+    assert_eq!(cv.rows.len(), 3);
+    assert_eq!(cv.grouped_by, "worker");
+    assert!(cv.rows.iter().any(|r| r.lambda == model.lambda));
+    // Deterministic for a seed.
+    let again = train(&sim.table, &set(&sim.triplets), &params, &mut |_| {}).unwrap();
+    assert_eq!(model, Model2::strip(again, &model));
+
+    let fresh = sim.fresh(5000, 5);
+    let report = evaluate(
+        &model,
+        &sim.table,
+        &fresh,
+        &BootstrapParams {
+            resamples: 200,
+            seed: 1,
+        },
+    )
+    .unwrap();
+    assert!(report.learned.raw.accuracy.value > report.uniform.raw.accuracy.value + 0.05);
+    assert!(report.learned.raw.perplexity.value < report.uniform.raw.perplexity.value);
+    assert_eq!(report.random.raw.accuracy.value, 0.5);
+    assert_eq!(report.random.raw.perplexity.value, 2.0);
+    let maj = report.learned.majority.unwrap();
+    // Majority labels remove rater noise: the model agrees with them more often.
+    assert!(maj.accuracy.value > report.learned.raw.accuracy.value);
+    let _ = held_out_scores;
+}
+
+/// Timing fields differ between runs; everything else must not.
+struct Model2;
+impl Model2 {
+    fn strip(
+        mut m: learner::metric::Model,
+        like: &learner::metric::Model,
+    ) -> learner::metric::Model {
+        m.solver.seconds = like.solver.seconds;
+        m
+    }
+}
