@@ -10,6 +10,7 @@
 //!   in expectation: accuracy exactly 0.5 (ties count half) and perplexity exactly 2.
 
 pub mod rank;
+pub mod report;
 pub mod triplets;
 
 use std::collections::HashMap;
