@@ -113,6 +113,37 @@ const FAMILIES: [(Family, &str, RGBColor); 4] = [
     (Family::Stroke, "strokes", RGBColor(80, 160, 90)),
 ];
 
+/// plotters measures text with ab_glyph, which needs a registered font even for SVG output:
+/// register the system's default sans-serif face once (via the same fontdb resvg uses).
+fn ensure_plot_font() -> Result<()> {
+    static DONE: OnceLock<std::result::Result<(), String>> = OnceLock::new();
+    DONE.get_or_init(|| {
+        let db = fonts();
+        let id = db
+            .query(&usvg::fontdb::Query {
+                families: &[usvg::fontdb::Family::SansSerif],
+                ..usvg::fontdb::Query::default()
+            })
+            .or_else(|| db.faces().next().map(|f| f.id))
+            .ok_or("no system font found (install e.g. fonts-dejavu-core)")?;
+        let bytes = db
+            .with_face_data(id, |data, _| data.to_vec())
+            .ok_or("cannot read the system font")?;
+        // Registered fonts must live for the whole process.
+        let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+        for style in [FontStyle::Normal, FontStyle::Bold] {
+            plotters::style::register_font("sans-serif", style, bytes)
+                .map_err(|_| "the system font is not a valid TrueType/OpenType font")?;
+        }
+        Ok(())
+    })
+    .clone()
+    .map_err(|message| Error::Plot {
+        path: PathBuf::from("(font)"),
+        message,
+    })
+}
+
 /// Fig. 5.3: SVG text of the weights bar chart, bars grouped by family (features whose names
 /// are not in the catalogue go last, in grey).
 pub fn weights_svg(model: &Model) -> Result<String> {
@@ -129,6 +160,7 @@ pub fn weights_svg(model: &Model) -> Result<String> {
     for (i, b) in bars.iter_mut().enumerate() {
         b.0 = i;
     }
+    ensure_plot_font()?;
     let top = bars.iter().map(|b| b.1).fold(0.0f64, f64::max).max(1e-6) * 1.1;
     let path = Path::new("weights.svg");
     let e = plot_err(path);
@@ -196,6 +228,7 @@ fn two_panel_svg(
     series: &[(&str, RGBColor, Vec<(f64, f64, f64)>)],
     mark: Option<f64>,
 ) -> Result<String> {
+    ensure_plot_font()?;
     let path = Path::new("chart.svg");
     let e = plot_err(path);
     let xs: Vec<f64> = series.iter().flat_map(|s| s.2.iter().map(|p| p.0)).collect();
@@ -320,6 +353,23 @@ fn fonts() -> Arc<usvg::fontdb::Database> {
         .get_or_init(|| {
             let mut db = usvg::fontdb::Database::new();
             db.load_system_fonts();
+            // fontdb maps the generic `sans-serif` to Arial, which Linux rarely has: point it
+            // at an installed sans face so chart text renders.
+            let sans = usvg::fontdb::Query {
+                families: &[usvg::fontdb::Family::SansSerif],
+                ..usvg::fontdb::Query::default()
+            };
+            if db.query(&sans).is_none() {
+                let has = |name: &str| db.faces().any(|f| f.families.iter().any(|(n, _)| n == name));
+                let pick = ["DejaVu Sans", "Liberation Sans", "Noto Sans", "FreeSans"]
+                    .into_iter()
+                    .find(|n| has(n))
+                    .map(str::to_owned)
+                    .or_else(|| db.faces().next().and_then(|f| f.families.first().map(|x| x.0.clone())));
+                if let Some(name) = pick {
+                    db.set_sans_serif_family(name);
+                }
+            }
             Arc::new(db)
         })
         .clone()

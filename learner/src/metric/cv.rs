@@ -11,7 +11,12 @@
 //! * Each fold walks the grid in increasing λ, warm-starting from the previous solution (the
 //!   first from the uniform metric); held-out scores use the weights *after* the 0.02 zeroing
 //!   that the final model applies. The chosen λ minimises the mean held-out log-loss (the log of
-//!   eq. 5.9's perplexity), which is smoother than accuracy; ties go to the larger λ (sparser).
+//!   eq. 5.9's perplexity), which is smoother than accuracy, under the **one-standard-error
+//!   rule** (Hastie, Tibshirani & Friedman, ESL §7.10): the largest λ whose mean held-out loss
+//!   is within one standard error (over folds) of the best. Near the optimum the loss curve is
+//!   flat, and the plain minimum keeps spurious small weights (on the simulated crowd: 8
+//!   non-zero instead of the true 6 at equal held-out loss to four digits); the paper wants a
+//!   sparse, interpretable metric.
 
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
@@ -36,6 +41,8 @@ pub struct CvRow {
     pub accuracy: f64,
     /// Non-zero weights after zeroing, averaged over folds.
     pub nonzero: f64,
+    /// Standard error of `log_loss` over folds (`sd / √k`).
+    pub std_error: f64,
     /// Per-fold held-out log-loss.
     pub fold_log_loss: Vec<f64>,
 }
@@ -226,7 +233,9 @@ pub fn cross_validate(
         .zip(&fold_scores)
         .map(|(&lambda, s)| {
             let log_loss = s.iter().map(|v| v.0).sum::<f64>() / k;
+            let var = s.iter().map(|v| (v.0 - log_loss).powi(2)).sum::<f64>() / (k - 1.0);
             CvRow {
+                std_error: (var / k).sqrt(),
                 lambda,
                 log_loss,
                 perplexity: log_loss.exp(),
@@ -236,12 +245,16 @@ pub fn cross_validate(
             }
         })
         .collect();
+    let best = rows
+        .iter()
+        .min_by(|a, b| a.log_loss.total_cmp(&b.log_loss))
+        .expect("grid is not empty");
+    let limit = best.log_loss + best.std_error;
     let chosen = rows
         .iter()
-        .rev()
-        .min_by(|a, b| a.log_loss.total_cmp(&b.log_loss))
+        .filter(|r| r.lambda >= best.lambda && r.log_loss <= limit)
         .map(|r| r.lambda)
-        .expect("grid is not empty");
+        .fold(best.lambda, f64::max);
     Ok(CvReport {
         folds: params.folds,
         grouped_by: if params.by_worker { "worker" } else { "tuple" }.into(),
