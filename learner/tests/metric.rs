@@ -146,14 +146,17 @@ fn argmin_and_nlopt_reach_the_same_optimum() {
 #[test]
 fn cross_validation_picks_a_lambda_and_beats_uniform() {
     let sim = simulate(&SimulationParams {
-        triplets: 3000,
+        items: 150,
+        dim: 12,
+        support: 3,
+        triplets: 1200,
         ..SimulationParams::default()
     })
     .unwrap();
     let params = TrainParams {
         lambda: LambdaChoice::Auto(None),
         folds: 3,
-        grid_size: 3,
+        grid_size: 2,
         ..TrainParams::default()
     };
     let mut fits = 0;
@@ -163,16 +166,16 @@ fn cross_validation_picks_a_lambda_and_beats_uniform() {
         }
     })
     .unwrap();
-    assert_eq!(fits, 9);
+    assert_eq!(fits, 6);
     let cv = model.cv.as_ref().unwrap();
-    assert_eq!(cv.rows.len(), 3);
+    assert_eq!(cv.rows.len(), 2);
     assert_eq!(cv.grouped_by, "worker");
     assert!(cv.rows.iter().any(|r| r.lambda == model.lambda));
     // Deterministic for a seed.
     let again = train(&sim.table, &set(&sim.triplets), &params, &mut |_| {}).unwrap();
     assert_eq!(model, Model2::strip(again, &model));
 
-    let fresh = sim.fresh(5000, 5);
+    let fresh = sim.fresh(3000, 5);
     let report = evaluate(
         &model,
         &sim.table,
@@ -203,4 +206,127 @@ impl Model2 {
         m.solver.seconds = like.solver.seconds;
         m
     }
+}
+
+#[test]
+fn rank_metrics_match_scikit_learn() {
+    let text = include_str!("data/metric/rank_reference.json");
+    let v: serde_json::Value = serde_json::from_str(text).unwrap();
+    for case in v["cases"].as_array().unwrap() {
+        let dim = case["dim"].as_u64().unwrap() as usize;
+        let y: Vec<f64> = case["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        let labels: Vec<u32> = case["labels"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_u64().unwrap() as u32)
+            .collect();
+        let queries: Vec<usize> = (0..labels.len()).collect();
+        let got = learner::eval::rank::rank_queries(&y, dim, &labels, &queries);
+        assert_eq!(got.queries as u64, case["queries"].as_u64().unwrap());
+        let e = &case["expected"];
+        for (name, value) in [
+            ("auc", got.auc),
+            ("map", got.map),
+            ("mrr", got.mrr),
+            ("prec_at_3", got.prec_at_3),
+            ("prec_at_10", got.prec_at_10),
+            ("ndcg_at_3", got.ndcg_at_3),
+            ("ndcg_at_10", got.ndcg_at_10),
+        ] {
+            let want = e[name].as_f64().unwrap();
+            assert!(
+                (value - want).abs() < 1e-12,
+                "seed {}: {name} {value} vs sklearn {want}",
+                case["seed"]
+            );
+        }
+    }
+}
+
+#[test]
+fn files_train_eval_rank_report_round_trip() {
+    use learner::table::{Label, read_features, write_features_to};
+    use learner::triplets::read_triplets;
+    let sim = simulate(&SimulationParams {
+        items: 120,
+        dim: 10,
+        support: 3,
+        triplets: 1500,
+        ..SimulationParams::default()
+    })
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let fpath = dir.path().join("features.csv");
+    write_features_to(&sim.table, std::fs::File::create(&fpath).unwrap(), &fpath).unwrap();
+    let tpath = dir.path().join("t.csv");
+    let ids = sim.table.ids();
+    let mut text = String::from("a,b,c,q,worker\n");
+    for t in &sim.triplets {
+        text.push_str(&format!(
+            "{},{},{},{},w{}\n",
+            ids[t.a as usize],
+            ids[t.b as usize],
+            ids[t.c as usize],
+            t.q as u8,
+            t.worker.unwrap()
+        ));
+    }
+    std::fs::write(&tpath, text).unwrap();
+    let table = read_features(&fpath).unwrap();
+    let set = read_triplets(&tpath, &table, false).unwrap();
+    let key = |t: &Triplet| (t.a, t.b, t.c, t.q);
+    assert_eq!(
+        set.triplets.iter().map(key).collect::<Vec<_>>(),
+        sim.triplets.iter().map(key).collect::<Vec<_>>()
+    );
+    assert!(set.has_workers);
+    let params = TrainParams {
+        lambda: LambdaChoice::Fixed(5.0),
+        ..TrainParams::default()
+    };
+    let model = train(&table, &set, &params, &mut |_| {}).unwrap();
+    let mpath = dir.path().join("model.json");
+    model.save(&mpath).unwrap();
+    let loaded = learner::metric::Model::load(&mpath).unwrap();
+    assert_eq!(loaded, model);
+    assert_eq!(model.data.triplets, 1500);
+    assert_eq!(model.data.sha256.len(), 64);
+
+    // Items are ranked by their true nearest cluster: label by the sign of the heaviest feature.
+    let heavy = (0..sim.dim)
+        .max_by(|&a, &b| sim.true_weights[a].total_cmp(&sim.true_weights[b]))
+        .unwrap();
+    let labels: Vec<Label> = (0..table.len())
+        .map(|i| Label {
+            id: ids[i].clone(),
+            style: if table.row(i)[heavy] > 0.0 { "p" } else { "n" }.into(),
+            concept: String::new(),
+        })
+        .collect();
+    let r = learner::eval::rank(&model, &table, &labels, None, 0).unwrap();
+    assert_eq!((r.items, r.styles, r.missing), (120, 2, 0));
+    assert!(r.learned.auc > r.uniform.auc, "{r:?}");
+
+    let out = dir.path().join("report");
+    let files = learner::eval::report::write_report(&out, &model, None, "").unwrap();
+    assert!(
+        files
+            .iter()
+            .all(|f| std::fs::metadata(f).unwrap().len() > 100)
+    );
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(html.contains("weights.svg") && html.contains("lambda") == model.cv.is_some());
+
+    // A features file with other columns is refused with a clear message.
+    let other =
+        learner::table::FeatureTable::new(vec!["x".into()], vec!["item0".into()], vec![1.0])
+            .unwrap();
+    let e = model.standardise(&other).unwrap_err().to_string();
+    assert!(e.contains("model has 10 features, file has 1"), "{e}");
 }

@@ -16,8 +16,8 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::triplets::{BootstrapParams, score};
 use super::predict;
+use super::triplets::{BootstrapParams, score};
 use crate::features::{Family, catalogue};
 use crate::metric::Model;
 use crate::metric::cv::CvReport;
@@ -190,8 +190,10 @@ pub fn weights_svg(model: &Model) -> Result<String> {
             .y_desc("weight w")
             .draw()
             .map_err(|x| e(x.to_string()))?;
-        let mut groups: Vec<(Option<Family>, &str, RGBColor)> =
-            FAMILIES.iter().map(|(f, n, c)| (Some(*f), *n, *c)).collect();
+        let mut groups: Vec<(Option<Family>, &str, RGBColor)> = FAMILIES
+            .iter()
+            .map(|(f, n, c)| (Some(*f), *n, *c))
+            .collect();
         groups.push((None, "other", RGBColor(150, 150, 150)));
         for (fam, name, colour) in groups {
             let mine: Vec<_> = bars.iter().filter(|b| b.2 == fam).collect();
@@ -207,7 +209,9 @@ pub fn weights_svg(model: &Model) -> Result<String> {
                 }))
                 .map_err(|x| e(x.to_string()))?
                 .label(name)
-                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], colour.filled()));
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 10, y + 5)], colour.filled())
+                });
         }
         chart
             .configure_series_labels()
@@ -220,21 +224,29 @@ pub fn weights_svg(model: &Model) -> Result<String> {
     Ok(svg)
 }
 
-/// Two panels (accuracy, perplexity) of `series` (name, colour, points) against `x`.
+/// A named line: colour and `(x, accuracy, perplexity)` points.
+type Series<'a> = (&'a str, RGBColor, Vec<(f64, f64, f64)>);
+
+/// Two panels (accuracy, perplexity) of `series` against `x`.
 fn two_panel_svg(
     title: &str,
     x_desc: &str,
     log_x: bool,
-    series: &[(&str, RGBColor, Vec<(f64, f64, f64)>)],
+    series: &[Series<'_>],
     mark: Option<f64>,
 ) -> Result<String> {
     ensure_plot_font()?;
     let path = Path::new("chart.svg");
     let e = plot_err(path);
-    let xs: Vec<f64> = series.iter().flat_map(|s| s.2.iter().map(|p| p.0)).collect();
-    let (xmin, xmax) = xs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-        (a.min(x), b.max(x))
-    });
+    let xs: Vec<f64> = series
+        .iter()
+        .flat_map(|s| s.2.iter().map(|p| p.0))
+        .collect();
+    let (xmin, xmax) = xs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
     let (xmin, xmax) = if log_x {
         (xmin / 1.3, xmax * 1.3)
     } else {
@@ -251,14 +263,19 @@ fn two_panel_svg(
         for (pi, panel) in panels.iter().enumerate() {
             let pick = |p: &(f64, f64, f64)| if pi == 0 { p.1 } else { p.2 };
             let ys: Vec<f64> = series.iter().flat_map(|s| s.2.iter().map(pick)).collect();
-            let (ymin, ymax) = ys.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &y| {
-                (a.min(y), b.max(y))
-            });
+            let (ymin, ymax) = ys
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &y| {
+                    (a.min(y), b.max(y))
+                });
             let pad = ((ymax - ymin) * 0.1).max(1e-3);
             let (ylo, yhi) = (ymin - pad, ymax + pad);
             let y_desc = if pi == 0 { "accuracy" } else { "perplexity" };
             let mut builder = ChartBuilder::on(panel);
-            builder.margin(12).x_label_area_size(36).y_label_area_size(56);
+            builder
+                .margin(12)
+                .x_label_area_size(36)
+                .y_label_area_size(56);
             macro_rules! draw {
                 ($chart:expr) => {{
                     let mut chart = $chart.map_err(|x| e(x.to_string()))?;
@@ -317,7 +334,10 @@ pub fn lambda_svg(cv: &CvReport) -> Result<String> {
         .map(|r| (r.lambda.max(1e-12), r.accuracy, r.perplexity))
         .collect();
     two_panel_svg(
-        &format!("{}-fold cross-validation (grouped by {})", cv.folds, cv.grouped_by),
+        &format!(
+            "{}-fold cross-validation (grouped by {})",
+            cv.folds, cv.grouped_by
+        ),
         "λ",
         true,
         &[("learned (held-out)", RGBColor(60, 130, 200), pts)],
@@ -360,12 +380,19 @@ fn fonts() -> Arc<usvg::fontdb::Database> {
                 ..usvg::fontdb::Query::default()
             };
             if db.query(&sans).is_none() {
-                let has = |name: &str| db.faces().any(|f| f.families.iter().any(|(n, _)| n == name));
+                let has = |name: &str| {
+                    db.faces()
+                        .any(|f| f.families.iter().any(|(n, _)| n == name))
+                };
                 let pick = ["DejaVu Sans", "Liberation Sans", "Noto Sans", "FreeSans"]
                     .into_iter()
                     .find(|n| has(n))
                     .map(str::to_owned)
-                    .or_else(|| db.faces().next().and_then(|f| f.families.first().map(|x| x.0.clone())));
+                    .or_else(|| {
+                        db.faces()
+                            .next()
+                            .and_then(|f| f.families.first().map(|x| x.0.clone()))
+                    });
                 if let Some(name) = pick {
                     db.set_sans_serif_family(name);
                 }
@@ -387,7 +414,11 @@ pub fn svg_to_png(svg: &str, path: &Path) -> Result<Vec<u8>> {
     let mut pixmap = tiny_skia::Pixmap::new(size.width(), size.height())
         .ok_or_else(|| e("empty chart".into()))?;
     pixmap.fill(tiny_skia::Color::WHITE);
-    resvg::render(&tree, tiny_skia::Transform::identity(), &mut pixmap.as_mut());
+    resvg::render(
+        &tree,
+        tiny_skia::Transform::identity(),
+        &mut pixmap.as_mut(),
+    );
     pixmap.encode_png().map_err(|x| e(x.to_string()))
 }
 

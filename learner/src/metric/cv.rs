@@ -200,7 +200,8 @@ pub fn cross_validate(
     let folds = assign_folds(triplets, params.folds, params.by_worker, params.seed)?;
     let total = params.folds * grid.len();
     let mut done = 0;
-    let mut fold_scores = vec![vec![(0.0, 0.0, 0usize); params.folds]; grid.len()];
+    // fold_scores[λ index] = per-fold (log-loss, accuracy, non-zero), in fold order.
+    let mut fold_scores: Vec<Vec<(f64, f64, usize)>> = vec![Vec::new(); grid.len()];
     for f in 0..params.folds {
         let train: Vec<Triplet> = triplets
             .iter()
@@ -221,7 +222,7 @@ pub fn cross_validate(
             let (wf, _) = minimise(params.solver, obj, w, &params.lbfgs, &mut |_, _| {})?;
             let wz = zero_small(&wf, params.zero_threshold);
             let (loss, acc) = held_out_scores(x, dim, &test, &wz, DEFAULT_SMOOTHING);
-            fold_scores[li][f] = (loss, acc, wz.iter().filter(|v| **v > 0.0).count());
+            fold_scores[li].push((loss, acc, wz.iter().filter(|v| **v > 0.0).count()));
             w = wf;
             done += 1;
             on_fit(done, total);

@@ -92,7 +92,10 @@ fn weighted_squares(w: &[f64], a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
             sac[l] += w[i + l] * v * v;
         }
     }
-    let (mut tab, mut tac) = ((sab[0] + sab[1]) + (sab[2] + sab[3]), (sac[0] + sac[1]) + (sac[2] + sac[3]));
+    let (mut tab, mut tac) = (
+        (sab[0] + sab[1]) + (sab[2] + sab[3]),
+        (sac[0] + sac[1]) + (sac[2] + sac[3]),
+    );
     for i in split..n {
         let u = a[i] - b[i];
         let v = a[i] - c[i];
@@ -115,7 +118,10 @@ impl<'a> TripletObjective<'a> {
         lambda: f64,
         smoothing: f64,
     ) -> Self {
-        assert!(dim > 0 && x.len() % dim == 0, "feature matrix shape");
+        assert!(
+            dim > 0 && x.len().is_multiple_of(dim),
+            "feature matrix shape"
+        );
         let rows = x.len() / dim;
         assert!(
             triplets

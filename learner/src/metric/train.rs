@@ -79,7 +79,7 @@ impl TrainParams {
                 reason: "need at least 1",
             });
         }
-        if !(self.zero_threshold >= 0.0) {
+        if self.zero_threshold.is_nan() || self.zero_threshold < 0.0 {
             return Err(Error::InvalidParameter {
                 name: "zero_threshold",
                 value: self.zero_threshold.to_string(),

@@ -93,7 +93,10 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         w.flush()?;
     }
     write_json(&a.out.join("truth.json"), &sim.true_weights)?;
-    println!("wrote {} (features, triplets, fresh, truth)", a.out.display());
+    println!(
+        "wrote {} (features, triplets, fresh, truth)",
+        a.out.display()
+    );
     Ok(())
 }
 
@@ -162,10 +165,7 @@ pub fn run_triplets(a: &TripletsArgs) -> Result<()> {
         let table = read_features(f)?;
         let before = labels.len();
         labels.retain(|l| table.index_of(&l.id).is_some());
-        eprintln!(
-            "{} of {before} labelled items have features",
-            labels.len()
-        );
+        eprintln!("{} of {before} labelled items have features", labels.len());
     }
     let t: Vec<TripletRecord> = generate_labelled(&labels, a.n, a.seed)?;
     write_triplets(&t, &a.out)?;
@@ -216,15 +216,14 @@ pub fn run_train(a: &TrainArgs) -> Result<()> {
             set.skip_examples.join("; ")
         );
     }
-    let lambda = if a.lambda == "auto" {
-        LambdaChoice::Auto(a.grid.clone())
-    } else {
-        LambdaChoice::Fixed(
-            a.lambda
-                .parse()
-                .with_context(|| format!("--lambda must be a number or `auto`, got `{}`", a.lambda))?,
-        )
-    };
+    let lambda =
+        if a.lambda == "auto" {
+            LambdaChoice::Auto(a.grid.clone())
+        } else {
+            LambdaChoice::Fixed(a.lambda.parse().with_context(|| {
+                format!("--lambda must be a number or `auto`, got `{}`", a.lambda)
+            })?)
+        };
     let params = TrainParams {
         lambda,
         folds: a.folds,
@@ -243,7 +242,9 @@ pub fn run_train(a: &TrainArgs) -> Result<()> {
         TrainProgress::Final {
             iteration,
             objective,
-        } => pb.set_message(format!("final fit: iteration {iteration}, E = {objective:.4}")),
+        } => pb.set_message(format!(
+            "final fit: iteration {iteration}, E = {objective:.4}"
+        )),
     })?;
     pb.finish_and_clear();
     model.save(&a.out)?;
@@ -261,7 +262,10 @@ pub fn run_train(a: &TrainArgs) -> Result<()> {
         a.out.display()
     );
     if let Some(cv) = &model.cv {
-        println!("{:>12} {:>10} {:>10} {:>9}", "λ", "log-loss", "accuracy", "non-zero");
+        println!(
+            "{:>12} {:>10} {:>10} {:>9}",
+            "λ", "log-loss", "accuracy", "non-zero"
+        );
         for r in &cv.rows {
             println!(
                 "{:>12.4} {:>10.5} {:>10.4} {:>9.1}{}",
@@ -269,7 +273,11 @@ pub fn run_train(a: &TrainArgs) -> Result<()> {
                 r.log_loss,
                 r.accuracy,
                 r.nonzero,
-                if r.lambda == cv.chosen { "  ← chosen" } else { "" }
+                if r.lambda == cv.chosen {
+                    "  ← chosen"
+                } else {
+                    ""
+                }
             );
         }
     }
@@ -577,7 +585,14 @@ fn scratch_dir() -> Result<PathBuf> {
     Ok(dir)
 }
 
-fn export_problem(dir: &Path, x: &[f64], dim: usize, set: &TripletSet, lambda: f64, w0: &[f64]) -> Result<()> {
+fn export_problem(
+    dir: &Path,
+    x: &[f64],
+    dim: usize,
+    set: &TripletSet,
+    lambda: f64,
+    w0: &[f64],
+) -> Result<()> {
     let f64s = |v: &[f64]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
     std::fs::write(dir.join("x.f64"), f64s(x))?;
     std::fs::write(dir.join("w0.f64"), f64s(w0))?;
