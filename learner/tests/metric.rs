@@ -330,3 +330,41 @@ fn files_train_eval_rank_report_round_trip() {
     let e = model.standardise(&other).unwrap_err().to_string();
     assert!(e.contains("model has 10 features, file has 1"), "{e}");
 }
+
+/// The acceptance check: on the fixture icons (features snapshot and labelled-group
+/// triplets in `tests/data/metric/`, made by `scripts/metric/fixture_features.py`), argmin and
+/// NLopt reach the same objective (1e-6 relative) and weights (1e-3).
+#[cfg(feature = "nlopt")]
+#[test]
+fn argmin_and_nlopt_agree_on_the_fixtures() {
+    use learner::metric::model::{fit_scaling, standardise};
+    use learner::metric::solver::minimise_nlopt;
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/metric");
+    let table = learner::table::read_features(&dir.join("fixture-features.csv")).unwrap();
+    let set =
+        learner::triplets::read_triplets(&dir.join("fixture-triplets.csv"), &table, false).unwrap();
+    assert_eq!((table.len(), set.triplets.len()), (200, 1000));
+    let (mean, scale) = fit_scaling(&table, &[]);
+    let std = standardise(&table, &mean, &scale);
+    let c = fit_uniform_scale(&std.x, std.dim, &set.triplets);
+    let params = LbfgsParams {
+        ftol: 1e-15,
+        pgtol: 1e-8,
+        max_iters: 3000,
+        ..LbfgsParams::default()
+    };
+    for lambda in [1.0, 10.0] {
+        let obj = TripletObjective::new(&std.x, std.dim, &set.triplets, lambda, DEFAULT_SMOOTHING);
+        let w0 = vec![c; std.dim];
+        let (wa, ia) = minimise_argmin(obj, w0.clone(), &params, &mut |_, _| {}).unwrap();
+        let (wn, inl) = minimise_nlopt(obj, w0, &params, &mut |_, _| {}).unwrap();
+        let rel = (ia.objective - inl.objective).abs() / inl.objective;
+        assert!(rel <= 1e-6, "λ={lambda}: objective {ia:?} vs {inl:?}");
+        let dw = wa
+            .iter()
+            .zip(&wn)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(dw <= 1e-3, "λ={lambda}: weights differ by {dw}");
+    }
+}

@@ -6,7 +6,7 @@
 //!   answers to one question must not sit on both sides). Groups are shuffled with the seed and
 //!   dealt greedily to the fold with the fewest triplets so far, which balances fold sizes.
 //! * The default grid is relative to the training-set size, `λ = n_train · r` for eight `r`
-//!   log-spaced in `[10⁻⁴, 10⁻¹]`: eq. 5.8 sums over triplets, so a fixed λ would mean less and
+//!   log-spaced in `[10⁻⁵, 10⁻¹]`: eq. 5.8 sums over triplets, so a fixed λ would mean less and
 //!   less as data grows. An explicit grid is used as given.
 //! * Each fold walks the grid in increasing λ, warm-starting from the previous solution (the
 //!   first from the uniform metric); held-out scores use the weights *after* the 0.02 zeroing
@@ -60,9 +60,9 @@ pub struct CvReport {
     pub chosen: f64,
 }
 
-/// The default grid for `n` training triplets: `n · r`, `r` log-spaced in `[1e-4, 1e-1]`.
+/// The default grid for `n` training triplets: `n · r`, `r` log-spaced in `[1e-5, 1e-1]`.
 pub fn default_grid(n: usize, count: usize) -> Vec<f64> {
-    let (lo, hi) = (1e-4f64.ln(), 1e-1f64.ln());
+    let (lo, hi) = (1e-5f64.ln(), 1e-1f64.ln());
     (0..count)
         .map(|i| {
             let t = if count == 1 {

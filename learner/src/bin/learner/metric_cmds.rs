@@ -188,7 +188,7 @@ pub struct TrainArgs {
     /// λ, or `auto` for cross-validation.
     #[arg(long, default_value = "auto")]
     pub lambda: String,
-    /// Explicit λ grid for `auto` (comma-separated); default: 8 values, n·[1e-4, 1e-1].
+    /// Explicit λ grid for `auto` (comma-separated); default: 8 values, n·[1e-5, 1e-1].
     #[arg(long, value_delimiter = ',')]
     pub grid: Option<Vec<f64>>,
     /// `argmin` or `nlopt`.
