@@ -105,6 +105,44 @@ fn weighted_squares(w: &[f64], a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
     (tab, tac)
 }
 
+/// Like [`weighted_squares`], also storing `(a − b)²` in `uu` and `(a − c)²` in `vv`.
+#[inline]
+fn squares_and_sums(
+    w: &[f64],
+    a: &[f64],
+    b: &[f64],
+    c: &[f64],
+    uu: &mut [f64],
+    vv: &mut [f64],
+) -> (f64, f64) {
+    let n = w.len();
+    let (a, b, c, uu, vv) = (&a[..n], &b[..n], &c[..n], &mut uu[..n], &mut vv[..n]);
+    let mut sab = [0.0f64; 4];
+    let mut sac = [0.0f64; 4];
+    let split = n - n % 4;
+    for i in (0..split).step_by(4) {
+        for l in 0..4 {
+            let u = a[i + l] - b[i + l];
+            let v = a[i + l] - c[i + l];
+            uu[i + l] = u * u;
+            vv[i + l] = v * v;
+            sab[l] += w[i + l] * uu[i + l];
+            sac[l] += w[i + l] * vv[i + l];
+        }
+    }
+    let mut tab = (sab[0] + sab[1]) + (sab[2] + sab[3]);
+    let mut tac = (sac[0] + sac[1]) + (sac[2] + sac[3]);
+    for i in split..n {
+        let u = a[i] - b[i];
+        let v = a[i] - c[i];
+        uu[i] = u * u;
+        vv[i] = v * v;
+        tab += w[i] * uu[i];
+        tac += w[i] * vv[i];
+    }
+    (tab, tac)
+}
+
 impl<'a> TripletObjective<'a> {
     /// `x`: row-major standardised features (`dim` columns); `triplets` index its rows.
     ///
@@ -174,10 +212,13 @@ impl<'a> TripletObjective<'a> {
     fn chunk(&self, w: &[f64], chunk: &[Triplet]) -> (f64, Vec<f64>) {
         let p = self.dim;
         let mut g = vec![0.0; p];
+        // Squared differences of the current triplet, reused by the gradient pass.
+        let mut uu = vec![0.0; p];
+        let mut vv = vec![0.0; p];
         let mut loss = 0.0;
         for t in chunk {
             let (xa, xb, xc) = (self.row(t.a), self.row(t.b), self.row(t.c));
-            let (sab, sac) = weighted_squares(w, xa, xb, xc);
+            let (sab, sac) = squares_and_sums(w, xa, xb, xc, &mut uu, &mut vv);
             let dab = (sab.max(0.0) + self.smoothing).sqrt();
             let dac = (sac.max(0.0) + self.smoothing).sqrt();
             // z = signed margin: positive when the model agrees with the answer.
@@ -188,10 +229,8 @@ impl<'a> TripletObjective<'a> {
             let dm = if t.q { dz } else { -dz };
             let cac = dm / (2.0 * dac);
             let cab = -dm / (2.0 * dab);
-            for (gk, (a, (b, c))) in g.iter_mut().zip(xa.iter().zip(xb.iter().zip(xc))) {
-                let u = a - b;
-                let v = a - c;
-                *gk += cac * v * v + cab * u * u;
+            for (gk, (u2, v2)) in g.iter_mut().zip(uu.iter().zip(&vv)) {
+                *gk += cac * v2 + cab * u2;
             }
         }
         (loss, g)
