@@ -303,13 +303,13 @@ mod tests {
     }
 
     #[test]
-    fn default_grid_spans_three_decades() {
+    fn default_grid_spans_four_decades() {
         let g = default_grid(1000, 8);
         assert_eq!(g.len(), 8);
-        assert!((g[0] - 0.1).abs() < 1e-12 && (g[7] - 100.0).abs() < 1e-9);
+        assert!((g[0] - 0.01).abs() < 1e-12 && (g[7] - 100.0).abs() < 1e-9);
         assert!(
             g.windows(2)
-                .all(|w| (w[1] / w[0] - 10f64.powf(3.0 / 7.0)).abs() < 1e-9)
+                .all(|w| (w[1] / w[0] - 10f64.powf(4.0 / 7.0)).abs() < 1e-9)
         );
     }
 }
