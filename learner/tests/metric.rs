@@ -368,3 +368,34 @@ fn argmin_and_nlopt_agree_on_the_fixtures() {
         assert!(dw <= 1e-3, "λ={lambda}: weights differ by {dw}");
     }
 }
+
+/// Regression: with a single triplet the likelihood along the uniform ray is monotone, so the
+/// start is huge and the objective nearly linear; the solver used to crawl for 1000 iterations.
+#[test]
+fn degenerate_single_triplet_fit_converges_quickly() {
+    let table = learner::table::FeatureTable::new(
+        vec!["f0".into(), "f1".into()],
+        vec!["x".into(), "y".into(), "z".into()],
+        vec![0.0, 0.0, 0.1, 1.0, 2.0, 0.5],
+    )
+    .unwrap();
+    let t = Triplet {
+        a: 0,
+        b: 1,
+        c: 2,
+        q: true,
+        worker: None,
+        tuple: 0,
+    };
+    let params = TrainParams {
+        lambda: LambdaChoice::Fixed(1.0),
+        ..TrainParams::default()
+    };
+    let m = train(&table, &set(&[t]), &params, &mut |_| {}).unwrap();
+    assert!(
+        m.solver.converged && m.solver.iterations < 50,
+        "{:?}",
+        m.solver
+    );
+    assert!(m.solver.objective.is_finite() && m.weights.iter().all(|w| w.is_finite()));
+}

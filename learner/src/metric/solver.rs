@@ -292,8 +292,9 @@ impl<O: FusedObjective> Solver<O, PlState> for ProjectedLbfgs<'_> {
             1.0
         };
         let c1 = 1e-4;
-        let mut accepted = None;
-        for _ in 0..60 {
+        let mut accepted: Option<(Vec<f64>, Vec<f64>, f64, Vec<f64>)> = None;
+        let steepest = self.pairs.is_empty();
+        for trial in 0..60 {
             let wn: Vec<f64> = w
                 .iter()
                 .zip(&d)
@@ -307,7 +308,21 @@ impl<O: FusedObjective> Solver<O, PlState> for ProjectedLbfgs<'_> {
             }
             let (fnew, gnew) = self.evaluate(problem, &wn)?;
             if fnew.is_finite() && fnew <= f + c1 * decrease {
-                accepted = Some((wn, step, fnew, gnew));
+                // A steepest-descent step (no curvature memory yet) accepted at once may be far
+                // too short — e.g. where the objective is nearly linear and no curvature pair
+                // passes the sᵀy test. Extrapolate by doubling while it keeps paying off.
+                let better = accepted.as_ref().is_none_or(|a| fnew < a.2);
+                if better {
+                    accepted = Some((wn, step, fnew, gnew));
+                    if steepest && trial < 40 && accepted.is_some() && alpha.is_finite() {
+                        alpha *= 2.0;
+                        continue;
+                    }
+                }
+                break;
+            }
+            if accepted.is_some() {
+                // The extrapolation overshot: keep the last accepted step.
                 break;
             }
             // Quadratic interpolation of φ(α) with φ'(0) ≈ decrease/α, safeguarded.
