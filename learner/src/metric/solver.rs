@@ -148,6 +148,9 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 type PlState = IterState<Vec<f64>, Vec<f64>, (), (), (), f64>;
 
+/// A line-search trial: new point, step, value, gradient.
+type Trial = (Vec<f64>, Vec<f64>, f64, Vec<f64>);
+
 /// Projected L-BFGS for `min E(w) s.t. w ≥ 0` (see the module docs), as an argmin solver.
 pub struct ProjectedLbfgs<'c> {
     params: LbfgsParams,
@@ -292,7 +295,8 @@ impl<O: FusedObjective> Solver<O, PlState> for ProjectedLbfgs<'_> {
             1.0
         };
         let c1 = 1e-4;
-        let mut accepted: Option<(Vec<f64>, Vec<f64>, f64, Vec<f64>)> = None;
+        // (w⁺, s = w⁺ − w, E(w⁺), ∇E(w⁺)) of the best accepted trial.
+        let mut accepted: Option<Trial> = None;
         let steepest = self.pairs.is_empty();
         for trial in 0..60 {
             let wn: Vec<f64> = w
