@@ -148,7 +148,19 @@ fn ensure_plot_font() -> Result<()> {
 /// are not in the catalogue go last, in grey).
 pub fn weights_svg(model: &Model) -> Result<String> {
     let cat = catalogue();
-    let family_of = |name: &str| cat.iter().find(|f| f.name == name).map(|f| f.family);
+    // The catalogue first; names from another version of the extractor by their prefix.
+    let family_of = |name: &str| {
+        cat.iter()
+            .find(|f| f.name == name)
+            .map(|f| f.family)
+            .or_else(|| match name.split('_').next() {
+                Some("colour") => Some(Family::Colour),
+                Some("shading") => Some(Family::Shading),
+                Some("texture" | "lbp" | "glcm" | "haralick") => Some(Family::Texture),
+                Some("stroke" | "swt") => Some(Family::Stroke),
+                _ => None,
+            })
+    };
     let mut bars: Vec<(usize, f64, Option<Family>)> = model
         .feature_names
         .iter()
