@@ -198,6 +198,7 @@ pub fn weights_svg(model: &Model) -> Result<String> {
         chart
             .configure_mesh()
             .disable_x_mesh()
+            .x_label_formatter(&|x| format!("{x:.0}"))
             .x_desc("feature (grouped by family)")
             .y_desc("weight w")
             .draw()
@@ -234,6 +235,15 @@ pub fn weights_svg(model: &Model) -> Result<String> {
         root.present().map_err(|x| e(x.to_string()))?;
     }
     Ok(svg)
+}
+
+/// Axis tick text: integers without a fraction, small values with two significant digits.
+fn tick(x: f64) -> String {
+    if x.abs() >= 10.0 || x == x.round() {
+        format!("{x:.0}")
+    } else {
+        format!("{x:.2}")
+    }
 }
 
 /// A named line: colour and `(x, accuracy, perplexity)` points.
@@ -293,6 +303,7 @@ fn two_panel_svg(
                     let mut chart = $chart.map_err(|x| e(x.to_string()))?;
                     chart
                         .configure_mesh()
+                        .x_label_formatter(&|x| tick(*x))
                         .x_desc(x_desc)
                         .y_desc(y_desc)
                         .draw()
