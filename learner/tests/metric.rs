@@ -7,7 +7,7 @@ use learner::metric::cv::held_out_scores;
 use learner::metric::objective::{DEFAULT_SMOOTHING, FusedObjective, TripletObjective};
 use learner::metric::simulate::{Simulation, SimulationParams, simulate};
 use learner::metric::solver::{LbfgsParams, minimise_argmin, projected_gradient_norm};
-use learner::metric::train::{LambdaChoice, TrainParams, fit_uniform_scale, train};
+use learner::metric::train::{LambdaChoice, TrainParams, train};
 use learner::triplets::{Triplet, TripletSet};
 
 fn set(triplets: &[Triplet]) -> TripletSet {
@@ -108,6 +108,7 @@ fn argmin_solution_satisfies_kkt() {
 #[test]
 fn argmin_and_nlopt_reach_the_same_optimum() {
     use learner::metric::solver::minimise_nlopt;
+    use learner::metric::train::fit_uniform_scale;
     for (seed, lambda) in [(3u64, 10.0), (4, 40.0)] {
         let sim = simulate(&SimulationParams {
             triplets: 4000,
@@ -339,6 +340,7 @@ fn files_train_eval_rank_report_round_trip() {
 fn argmin_and_nlopt_agree_on_the_fixtures() {
     use learner::metric::model::{fit_scaling, standardise};
     use learner::metric::solver::minimise_nlopt;
+    use learner::metric::train::fit_uniform_scale;
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/metric");
     let table = learner::table::read_features(&dir.join("fixture-features.csv")).unwrap();
     let set =
