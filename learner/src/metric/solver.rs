@@ -23,6 +23,13 @@
 //! 5. Stop when `‖w − P(w − g)‖∞ ≤ pgtol` or the relative decrease
 //!    `(E − E⁺) / max(|E|, |E⁺|, 1) ≤ ftol` (the L-BFGS-B "factr" test).
 //!
+//! Measured (see `docs/metric/README.md`): on a simulated crowd (50,000 × 169) it converges in
+//! ~14 evaluations, like SciPy's L-BFGS-B; on real dev-set features the problem is badly
+//! conditioned and it needs ~1,000 evaluations (L-BFGS-B ~800, NLopt ~1,400), and the
+//! relative-decrease test can stop it a few 1e-6 above their objective at loose tolerances.
+//! It is not a full L-BFGS-B (no generalised Cauchy point / subspace minimisation), which is
+//! the likely source of the extra evaluations.
+//!
 //! Every evaluation is one fused value+gradient pass ([`FusedObjective`]), counted in argmin's
 //! function counts as `cost_count` and `gradient_count` (both equal).
 
