@@ -12,9 +12,15 @@
 //! 1. ε-active set `A = {k : w_k ≤ ε, g_k > 0}` with `ε = min(10⁻³, ‖w − P(w − g)‖₂)`; the rest
 //!    is free (`F`). At a solution the active set is exactly the zero weights with positive
 //!    gradient, and ε → 0 as the projected gradient vanishes.
-//! 2. Direction `d = −P_F H P_F g − γ P_A g`, with `H` the L-BFGS two-loop inverse-Hessian
-//!    estimate and `γ = sᵀy / yᵀy` of the newest pair. `P_F H P_F` is positive semi-definite, so
-//!    `gᵀd < 0` whenever the projected gradient is non-zero: it is always a descent direction.
+//! 2. Direction: on the free set the exact quasi-Newton step of the reduced matrix,
+//!    `d_F = −(B_FF)⁻¹ g_F`, from L-BFGS's compact representation and the Woodbury identity
+//!    (as in L-BFGS-B's subspace minimisation; see [`ProjectedLbfgs`]'s `reduced_direction`);
+//!    on the active set `d_A = −g_A / θ` with `θ = yᵀy / sᵀy` of the newest pair. `(B_FF)⁻¹` is
+//!    positive definite, so `gᵀd < 0` whenever the projected gradient is non-zero. If the small
+//!    `2m × 2m` system is singular, the masked two-loop recursion `−P_F H P_F g` (also a descent
+//!    direction) is used instead; if neither descends, the memory is dropped (steepest descent).
+//!    Measured: the reduced step needs ~40% fewer evaluations than the masked two-loop on the
+//!    fixture icons (194 vs 345 at λ = 1).
 //! 3. Projected backtracking (Armijo along the projection arc): accept
 //!    `w⁺ = max(w + αd, 0)` when `E(w⁺) ≤ E(w) + c₁ gᵀ(w⁺ − w)`, starting at `α = 1` (first
 //!    iteration: `α = 1/‖g‖∞`), shrinking by safeguarded quadratic interpolation.
@@ -24,11 +30,9 @@
 //!    `(E − E⁺) / max(|E|, |E⁺|, 1) ≤ ftol` (the L-BFGS-B "factr" test).
 //!
 //! Measured (see `docs/metric/README.md`): on a simulated crowd (50,000 × 169) it converges in
-//! ~14 evaluations, like SciPy's L-BFGS-B; on real dev-set features the problem is badly
-//! conditioned and it needs ~1,000 evaluations (L-BFGS-B ~800, NLopt ~1,400), and the
-//! relative-decrease test can stop it a few 1e-6 above their objective at loose tolerances.
-//! It is not a full L-BFGS-B (no generalised Cauchy point / subspace minimisation), which is
-//! the likely source of the extra evaluations.
+//! ~11–14 evaluations, like SciPy's L-BFGS-B; on real features the problem is badly conditioned
+//! and all solvers need hundreds of evaluations (fixture icons, λ = 1: ours 194, L-BFGS-B 213,
+//! NLopt 269). It has no generalised Cauchy point (the active set comes from the ε-rule instead).
 //!
 //! Every evaluation is one fused value+gradient pass ([`FusedObjective`]), counted in argmin's
 //! function counts as `cost_count` and `gradient_count` (both equal).
@@ -153,6 +157,42 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// Solves `A x = b` in place (`A` row-major `n × n`, result in `b`) by Gaussian elimination with
+/// partial pivoting; `None` when `A` is numerically singular.
+fn solve_dense(a: &mut [f64], b: &mut [f64], n: usize) -> Option<()> {
+    let scale = a
+        .iter()
+        .fold(0.0f64, |m, v| m.max(v.abs()))
+        .max(f64::MIN_POSITIVE);
+    for c in 0..n {
+        let p = (c..n).max_by(|&i, &j| a[i * n + c].abs().total_cmp(&a[j * n + c].abs()))?;
+        if a[p * n + c].abs() <= 1e-14 * scale {
+            return None;
+        }
+        if p != c {
+            for j in 0..n {
+                a.swap(c * n + j, p * n + j);
+            }
+            b.swap(c, p);
+        }
+        for r in c + 1..n {
+            let f = a[r * n + c] / a[c * n + c];
+            for j in c..n {
+                a[r * n + j] -= f * a[c * n + j];
+            }
+            b[r] -= f * b[c];
+        }
+    }
+    for c in (0..n).rev() {
+        let mut v = b[c];
+        for j in c + 1..n {
+            v -= a[c * n + j] * b[j];
+        }
+        b[c] = v / a[c * n + c];
+    }
+    b.iter().all(|v| v.is_finite()).then_some(())
+}
+
 type PlState = IterState<Vec<f64>, Vec<f64>, (), (), (), f64>;
 
 /// A line-search trial: new point, step, value, gradient.
@@ -205,6 +245,60 @@ impl<'c> ProjectedLbfgs<'c> {
         problem.problem("cost_count", |_| Ok(()))?;
         let f = problem.problem("gradient_count", |op| Ok(op.eval(w, &mut g)))?;
         Ok((f, g))
+    }
+
+    /// `−(B_FF)⁻¹ g_F` on the free set and `−g_A / θ` on the active set, from the compact
+    /// representation `B = θI − W M Wᵀ`, `W = [Y θS]`, `M⁻¹ = [[−D, Lᵀ], [L, θ SᵀS]]` (Byrd,
+    /// Nocedal & Schnabel 1994): by Woodbury,
+    /// `(B_FF)⁻¹ = I/θ + W_F (M⁻¹ − W_Fᵀ W_F / θ)⁻¹ W_Fᵀ / θ²`. Unlike masking the two-loop
+    /// (`P_F H P_F`, which is not the inverse of the reduced matrix), this is the exact
+    /// quasi-Newton step on the free subspace, as in L-BFGS-B's subspace minimisation. `None`
+    /// when the small system is singular.
+    fn reduced_direction(&self, g: &[f64], free: &[bool]) -> Option<Vec<f64>> {
+        let k = self.pairs.len();
+        let (sl, yl, _) = self.pairs.back()?;
+        let theta = dot(yl, yl) / dot(sl, yl);
+        if !(theta.is_finite() && theta > 0.0) {
+            return None;
+        }
+        let m = 2 * k;
+        // Column j of W restricted to F: y_j (j < k) or θ s_{j−k}.
+        let col = |j: usize, i: usize| -> f64 {
+            if j < k {
+                self.pairs[j].1[i]
+            } else {
+                theta * self.pairs[j - k].0[i]
+            }
+        };
+        let fidx: Vec<usize> = (0..g.len()).filter(|&i| free[i]).collect();
+        let mut kmat = vec![0.0; m * m];
+        for a in 0..k {
+            for b in 0..k {
+                let (sa, ya, _) = &self.pairs[a];
+                let (sb, yb, _) = &self.pairs[b];
+                // M⁻¹ blocks.
+                kmat[a * m + b] = if a == b { -dot(sa, ya) } else { 0.0 };
+                kmat[a * m + k + b] = if b > a { dot(sb, ya) } else { 0.0 }; // Lᵀ
+                kmat[(k + a) * m + b] = if a > b { dot(sa, yb) } else { 0.0 }; // L
+                kmat[(k + a) * m + k + b] = theta * dot(sa, sb);
+            }
+        }
+        for a in 0..m {
+            for b in 0..m {
+                let wtw: f64 = fidx.iter().map(|&i| col(a, i) * col(b, i)).sum();
+                kmat[a * m + b] -= wtw / theta;
+            }
+        }
+        let mut rhs: Vec<f64> = (0..m)
+            .map(|a| fidx.iter().map(|&i| col(a, i) * g[i]).sum())
+            .collect();
+        solve_dense(&mut kmat, &mut rhs, m)?;
+        let mut d: Vec<f64> = g.iter().map(|v| -v / theta).collect();
+        for &i in &fidx {
+            let wz: f64 = (0..m).map(|a| col(a, i) * rhs[a]).sum();
+            d[i] -= wz / (theta * theta);
+        }
+        Some(d)
     }
 
     /// `P_F H P_F g + γ P_A g` by the two-loop recursion on the free set.
@@ -290,7 +384,10 @@ impl<O: FusedObjective> Solver<O, PlState> for ProjectedLbfgs<'_> {
             .zip(&g)
             .map(|(&wk, &gk)| !(wk <= eps && gk > 0.0))
             .collect();
-        let mut d = self.direction(&g, &free);
+        let mut d = self
+            .reduced_direction(&g, &free)
+            .filter(|d| dot(&g, d) < 0.0)
+            .unwrap_or_else(|| self.direction(&g, &free));
         if dot(&g, &d) >= 0.0 {
             // Numerically indefinite memory: fall back to steepest descent.
             self.pairs.clear();
