@@ -90,6 +90,70 @@ pub enum Error {
         /// Actual height.
         height: u32,
     },
+    /// A file that must hold data rows has none.
+    #[error("{path}: no data rows")]
+    EmptyFile {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A parameter is outside its valid range.
+    #[error("invalid parameter {name} = {value}: {reason}")]
+    InvalidParameter {
+        /// The parameter's name.
+        name: &'static str,
+        /// The offending value, as text.
+        value: String,
+        /// What is allowed.
+        reason: &'static str,
+    },
+    /// There is too little data for the requested computation.
+    #[error("not enough data for {what}: need at least {needed}, got {got}")]
+    NotEnoughData {
+        /// What was being computed.
+        what: &'static str,
+        /// The minimum.
+        needed: usize,
+        /// What there is.
+        got: usize,
+    },
+    /// A features file does not have the columns a model was trained on.
+    #[error("features do not match the model: {message}")]
+    FeatureMismatch {
+        /// The first difference found.
+        message: String,
+    },
+    /// An optimiser failed (not merely stopped early: that is reported in the solver info).
+    #[error("{solver} failed: {message}")]
+    Solver {
+        /// `argmin` or `nlopt`.
+        solver: &'static str,
+        /// The solver's own message.
+        message: String,
+    },
+    /// A JSON file could not be read or written.
+    #[error("{path}: {source}")]
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// The parser's error.
+        source: serde_json::Error,
+    },
+    /// Drawing a chart failed.
+    #[error("cannot draw {path}: {message}")]
+    Plot {
+        /// The output file.
+        path: PathBuf,
+        /// The backend's message.
+        message: String,
+    },
+    /// Writing a file failed.
+    #[error("cannot write {path}: {source}")]
+    CannotWrite {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
 }
 
 /// `Result` with this crate's [`Error`].

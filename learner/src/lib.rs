@@ -16,11 +16,15 @@
 
 pub mod edges;
 mod error;
+pub mod eval;
 pub mod features;
 pub mod iconify;
 pub mod input;
 pub mod mask;
+pub mod metric;
 pub mod plane;
 pub mod render;
+pub mod table;
+pub mod triplets;
 
 pub use error::{Error, Result};

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The same 169-feature pipeline written the way a Python user would: numpy, scipy.ndimage,
-scikit-image and mahotas. Used by `learner bench --python` to time our Rust features side by
+scikit-image and mahotas. Used by `learner bench features --python` to time our Rust features side by
 side with the libraries a user would otherwise pick. It is a timing reference, not a numeric
 one (the numeric references for the texture features live in scripts/reference/).
 

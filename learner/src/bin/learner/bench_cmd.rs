@@ -1,4 +1,4 @@
-//! `learner bench`: per-image cost of rendering and of each feature family over a real data set,
+//! `learner bench features`: per-image cost of rendering and of each feature family over a real data set,
 //! the parallel throughput, and the same pipeline in Python (scikit-image, mahotas) side by side.
 
 use std::path::PathBuf;

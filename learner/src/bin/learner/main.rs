@@ -1,12 +1,15 @@
-//! The `learner` command line: style features of clip-art libraries.
+//! The `learner` command line: style features of clip-art libraries and the learned metric.
 
 mod bench_cmd;
 mod features_cmd;
+mod metric_cmds;
 mod render_cmd;
+
+use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-/// Measure the visual style of clip art (Garces et al., SIGGRAPH 2014).
+/// Measure the visual style of clip art and learn a style metric (Garces et al., SIGGRAPH 2014).
 #[derive(Debug, Parser)]
 #[command(name = "learner", version, about)]
 struct Cli {
@@ -20,22 +23,53 @@ enum Command {
     Features(features_cmd::FeaturesArgs),
     /// Render one item exactly as the features see it (optionally with the mask overlaid).
     Render(render_cmd::RenderArgs),
-    /// Time rendering and features over a data set, side by side with the Python libraries.
-    Bench(bench_cmd::BenchArgs),
+    /// Write a simulated crowd (features, triplets, ground truth).
+    Simulate(metric_cmds::SimulateArgs),
+    /// Split labels into train/test by held-out styles and concepts.
+    Split(metric_cmds::SplitArgs),
+    /// Generate labelled-group triplets.
+    Triplets(metric_cmds::TripletsArgs),
+    /// Learn the metric.
+    Train(metric_cmds::TrainArgs),
+    /// Triplet accuracy and perplexity.
+    Eval(metric_cmds::EvalArgs),
+    /// Ranking metrics by style label.
+    Rank(metric_cmds::RankArgs),
+    /// Figures and index.html.
+    Report(metric_cmds::ReportArgs),
+    /// Benchmarks that print tables.
+    #[command(subcommand)]
+    Bench(BenchCommand),
 }
 
-fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
-    let result = match cli.command {
+#[derive(Debug, Subcommand)]
+enum BenchCommand {
+    /// Rendering and features over a data set, side by side with the Python libraries.
+    Features(bench_cmd::BenchArgs),
+    /// Fitting the metric: argmin vs NLopt vs SciPy.
+    Metric(metric_cmds::BenchMetricArgs),
+}
+
+fn main() -> ExitCode {
+    let done = |r: anyhow::Result<()>| r.map(|()| ExitCode::SUCCESS);
+    let result = match Cli::parse().command {
         Command::Features(args) => features_cmd::run(args),
         Command::Render(args) => render_cmd::run(args),
-        Command::Bench(args) => bench_cmd::run(args),
+        Command::Simulate(a) => done(metric_cmds::run_simulate(&a)),
+        Command::Split(a) => done(metric_cmds::run_split(&a)),
+        Command::Triplets(a) => done(metric_cmds::run_triplets(&a)),
+        Command::Train(a) => done(metric_cmds::run_train(&a)),
+        Command::Eval(a) => done(metric_cmds::run_eval(&a)),
+        Command::Rank(a) => done(metric_cmds::run_rank(&a)),
+        Command::Report(a) => done(metric_cmds::run_report(&a)),
+        Command::Bench(BenchCommand::Features(args)) => bench_cmd::run(args),
+        Command::Bench(BenchCommand::Metric(a)) => done(metric_cmds::bench_metric(&a)),
     };
     match result {
         Ok(code) => code,
         Err(error) => {
             eprintln!("error: {error:#}");
-            std::process::ExitCode::from(2)
+            ExitCode::from(2)
         }
     }
 }

@@ -1,0 +1,558 @@
+//! Figures of the paper's §5.6 for a trained model, drawn with plotters as SVG and rendered to
+//! PNG with resvg (so the PNGs get real system fonts without a font file in the repository):
+//!
+//! * Fig. 5.3: learned weights, one bar per feature, coloured and ordered by feature family;
+//! * Fig. 5.4: held-out accuracy and perplexity against λ (the cross-validation table);
+//! * Fig. 5.5: test accuracy and perplexity against the number of training triplets.
+//!
+//! plus an `index.html` that shows them with the model's summary.
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
+
+use plotters::prelude::*;
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use super::predict;
+use super::triplets::{BootstrapParams, score};
+use crate::features::{Family, catalogue};
+use crate::metric::Model;
+use crate::metric::cv::CvReport;
+use crate::metric::train::{LambdaChoice, TrainParams, train};
+use crate::table::FeatureTable;
+use crate::triplets::{Triplet, TripletSet};
+use crate::{Error, Result};
+
+/// One point of the learning curve.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CurvePoint {
+    /// Training triplets used.
+    pub triplets: usize,
+    /// λ used (the model's λ per training triplet, times `triplets`).
+    pub lambda: f64,
+    /// Test accuracy of the learned metric.
+    pub accuracy: f64,
+    /// Test perplexity of the learned metric.
+    pub perplexity: f64,
+    /// Test accuracy of uniform weights.
+    pub uniform_accuracy: f64,
+    /// Test perplexity of uniform weights (scale fitted on the same subset).
+    pub uniform_perplexity: f64,
+    /// Non-zero weights.
+    pub nonzero: usize,
+}
+
+/// Trains on nested seeded subsets of `train_set` of each size in `sizes` (λ scaled with the
+/// subset so the per-triplet regularisation of `model` is kept; no cross-validation) and scores
+/// each on `test`. Sizes above the training-set size are skipped.
+pub fn learning_curve(
+    model: &Model,
+    table: &FeatureTable,
+    train_set: &TripletSet,
+    test: &[Triplet],
+    sizes: &[usize],
+    seed: u64,
+    on_point: &mut dyn FnMut(usize, usize),
+) -> Result<Vec<CurvePoint>> {
+    let mut order: Vec<usize> = (0..train_set.triplets.len()).collect();
+    order.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
+    let per_triplet = model.lambda / model.data.triplets.max(1) as f64;
+    let sizes: Vec<usize> = sizes
+        .iter()
+        .copied()
+        .filter(|&n| n > 0 && n <= order.len())
+        .collect();
+    let mut out = Vec::new();
+    for (i, &n) in sizes.iter().enumerate() {
+        let subset = TripletSet {
+            triplets: order[..n].iter().map(|&k| train_set.triplets[k]).collect(),
+            ..train_set.clone()
+        };
+        let lambda = per_triplet * n as f64;
+        let params = TrainParams {
+            lambda: LambdaChoice::Fixed(lambda),
+            zero_threshold: model.zero_threshold,
+            ..TrainParams::default()
+        };
+        let m = train(table, &subset, &params, &mut |_| {})?;
+        let none = BootstrapParams {
+            resamples: 0,
+            seed: 0,
+        };
+        let learned = score(test, &predict(&m, table, test, &m.weights)?, &none)?;
+        let uniform_w = vec![m.uniform_scale; m.weights.len()];
+        let uniform = score(test, &predict(&m, table, test, &uniform_w)?, &none)?;
+        out.push(CurvePoint {
+            triplets: n,
+            lambda,
+            accuracy: learned.raw.accuracy.value,
+            perplexity: learned.raw.perplexity.value,
+            uniform_accuracy: uniform.raw.accuracy.value,
+            uniform_perplexity: uniform.raw.perplexity.value,
+            nonzero: m.nonzero,
+        });
+        on_point(i + 1, sizes.len());
+    }
+    Ok(out)
+}
+
+fn plot_err(path: &Path) -> impl Fn(String) -> Error + '_ {
+    move |message| Error::Plot {
+        path: path.to_path_buf(),
+        message,
+    }
+}
+
+const FAMILIES: [(Family, &str, RGBColor); 4] = [
+    (Family::Colour, "colour", RGBColor(220, 80, 60)),
+    (Family::Shading, "shading", RGBColor(240, 170, 40)),
+    (Family::Texture, "texture", RGBColor(60, 130, 200)),
+    (Family::Stroke, "strokes", RGBColor(80, 160, 90)),
+];
+
+/// plotters measures text with ab_glyph, which needs a registered font even for SVG output:
+/// register the system's default sans-serif face once (via the same fontdb resvg uses).
+fn ensure_plot_font() -> Result<()> {
+    static DONE: OnceLock<std::result::Result<(), String>> = OnceLock::new();
+    DONE.get_or_init(|| {
+        let db = fonts();
+        let id = db
+            .query(&usvg::fontdb::Query {
+                families: &[usvg::fontdb::Family::SansSerif],
+                ..usvg::fontdb::Query::default()
+            })
+            .or_else(|| db.faces().next().map(|f| f.id))
+            .ok_or("no system font found (install e.g. fonts-dejavu-core)")?;
+        let bytes = db
+            .with_face_data(id, |data, _| data.to_vec())
+            .ok_or("cannot read the system font")?;
+        // Registered fonts must live for the whole process.
+        let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+        for style in [FontStyle::Normal, FontStyle::Bold] {
+            plotters::style::register_font("sans-serif", style, bytes)
+                .map_err(|_| "the system font is not a valid TrueType/OpenType font")?;
+        }
+        Ok(())
+    })
+    .clone()
+    .map_err(|message| Error::Plot {
+        path: PathBuf::from("(font)"),
+        message,
+    })
+}
+
+/// Fig. 5.3: SVG text of the weights bar chart, bars grouped by family (features whose names
+/// are not in the catalogue go last, in grey).
+pub fn weights_svg(model: &Model) -> Result<String> {
+    let cat = catalogue();
+    // The catalogue first; names from another version of the extractor by their prefix.
+    let family_of = |name: &str| {
+        cat.iter()
+            .find(|f| f.name == name)
+            .map(|f| f.family)
+            .or_else(|| match name.split('_').next() {
+                Some("colour") => Some(Family::Colour),
+                Some("shading") => Some(Family::Shading),
+                Some("texture" | "lbp" | "glcm" | "haralick") => Some(Family::Texture),
+                Some("stroke" | "swt") => Some(Family::Stroke),
+                _ => None,
+            })
+    };
+    let mut bars: Vec<(usize, f64, Option<Family>)> = model
+        .feature_names
+        .iter()
+        .zip(&model.weights)
+        .map(|(n, &w)| (0, w, family_of(n)))
+        .collect();
+    let rank = |f: Option<Family>| FAMILIES.iter().position(|x| Some(x.0) == f).unwrap_or(4);
+    bars.sort_by_key(|b| rank(b.2));
+    for (i, b) in bars.iter_mut().enumerate() {
+        b.0 = i;
+    }
+    ensure_plot_font()?;
+    let top = bars.iter().map(|b| b.1).fold(0.0f64, f64::max).max(1e-6) * 1.1;
+    let path = Path::new("weights.svg");
+    let e = plot_err(path);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1000, 420)).into_drawing_area();
+        root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!(
+                    "Learned weights (λ = {:.3}, {} of {} non-zero)",
+                    model.lambda,
+                    model.nonzero,
+                    model.weights.len()
+                ),
+                ("sans-serif", 20),
+            )
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(56)
+            .build_cartesian_2d(0f64..bars.len() as f64, 0f64..top)
+            .map_err(|x| e(x.to_string()))?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_label_formatter(&|x| format!("{x:.0}"))
+            .x_desc("feature (grouped by family)")
+            .y_desc("weight w")
+            .draw()
+            .map_err(|x| e(x.to_string()))?;
+        let mut groups: Vec<(Option<Family>, &str, RGBColor)> = FAMILIES
+            .iter()
+            .map(|(f, n, c)| (Some(*f), *n, *c))
+            .collect();
+        groups.push((None, "other", RGBColor(150, 150, 150)));
+        for (fam, name, colour) in groups {
+            let mine: Vec<_> = bars.iter().filter(|b| b.2 == fam).collect();
+            if mine.is_empty() {
+                continue;
+            }
+            chart
+                .draw_series(mine.iter().map(|b| {
+                    Rectangle::new(
+                        [(b.0 as f64 + 0.1, 0.0), (b.0 as f64 + 0.9, b.1)],
+                        colour.filled(),
+                    )
+                }))
+                .map_err(|x| e(x.to_string()))?
+                .label(name)
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 10, y + 5)], colour.filled())
+                });
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|x| e(x.to_string()))?;
+        root.present().map_err(|x| e(x.to_string()))?;
+    }
+    Ok(svg)
+}
+
+/// Axis tick text: integers without a fraction, small values with two significant digits.
+fn tick(x: f64) -> String {
+    if x.abs() >= 10.0 || x == x.round() {
+        format!("{x:.0}")
+    } else {
+        format!("{x:.2}")
+    }
+}
+
+/// A named line: colour and `(x, accuracy, perplexity)` points.
+type Series<'a> = (&'a str, RGBColor, Vec<(f64, f64, f64)>);
+
+/// Two panels (accuracy, perplexity) of `series` against `x`.
+fn two_panel_svg(
+    title: &str,
+    x_desc: &str,
+    log_x: bool,
+    series: &[Series<'_>],
+    mark: Option<f64>,
+) -> Result<String> {
+    ensure_plot_font()?;
+    let path = Path::new("chart.svg");
+    let e = plot_err(path);
+    let xs: Vec<f64> = series
+        .iter()
+        .flat_map(|s| s.2.iter().map(|p| p.0))
+        .collect();
+    let (xmin, xmax) = xs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
+    let (xmin, xmax) = if log_x {
+        (xmin / 1.3, xmax * 1.3)
+    } else {
+        (xmin, xmax + 1e-9)
+    };
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1000, 420)).into_drawing_area();
+        root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
+        let root = root
+            .titled(title, ("sans-serif", 20))
+            .map_err(|x| e(x.to_string()))?;
+        let panels = root.split_evenly((1, 2));
+        for (pi, panel) in panels.iter().enumerate() {
+            let pick = |p: &(f64, f64, f64)| if pi == 0 { p.1 } else { p.2 };
+            let ys: Vec<f64> = series.iter().flat_map(|s| s.2.iter().map(pick)).collect();
+            let (ymin, ymax) = ys
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &y| {
+                    (a.min(y), b.max(y))
+                });
+            let pad = ((ymax - ymin) * 0.1).max(1e-3);
+            let (ylo, yhi) = (ymin - pad, ymax + pad);
+            let y_desc = if pi == 0 { "accuracy" } else { "perplexity" };
+            let mut builder = ChartBuilder::on(panel);
+            builder
+                .margin(12)
+                .x_label_area_size(36)
+                .y_label_area_size(56);
+            macro_rules! draw {
+                ($chart:expr) => {{
+                    let mut chart = $chart.map_err(|x| e(x.to_string()))?;
+                    chart
+                        .configure_mesh()
+                        .x_label_formatter(&|x| tick(*x))
+                        .x_desc(x_desc)
+                        .y_desc(y_desc)
+                        .draw()
+                        .map_err(|x| e(x.to_string()))?;
+                    for (name, colour, pts) in series {
+                        let colour = *colour;
+                        let line: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, pick(p))).collect();
+                        chart
+                            .draw_series(LineSeries::new(line.clone(), colour.stroke_width(2)))
+                            .map_err(|x| e(x.to_string()))?
+                            .label(*name)
+                            .legend(move |(x, y)| {
+                                PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
+                            });
+                        chart
+                            .draw_series(line.iter().map(|&p| Circle::new(p, 3, colour.filled())))
+                            .map_err(|x| e(x.to_string()))?;
+                    }
+                    if let Some(m) = mark {
+                        chart
+                            .draw_series(std::iter::once(PathElement::new(
+                                vec![(m, ylo), (m, yhi)],
+                                BLACK.mix(0.4).stroke_width(1),
+                            )))
+                            .map_err(|x| e(x.to_string()))?;
+                    }
+                    chart
+                        .configure_series_labels()
+                        .background_style(WHITE.mix(0.8))
+                        .border_style(BLACK)
+                        .draw()
+                        .map_err(|x| e(x.to_string()))?;
+                }};
+            }
+            if log_x {
+                draw!(builder.build_cartesian_2d((xmin..xmax).log_scale(), ylo..yhi));
+            } else {
+                draw!(builder.build_cartesian_2d(xmin..xmax, ylo..yhi));
+            }
+        }
+        root.present().map_err(|x| e(x.to_string()))?;
+    }
+    Ok(svg)
+}
+
+/// Fig. 5.4: held-out accuracy and perplexity against λ, the chosen λ marked.
+pub fn lambda_svg(cv: &CvReport) -> Result<String> {
+    let pts: Vec<(f64, f64, f64)> = cv
+        .rows
+        .iter()
+        .map(|r| (r.lambda.max(1e-12), r.accuracy, r.perplexity))
+        .collect();
+    two_panel_svg(
+        &format!(
+            "{}-fold cross-validation (grouped by {})",
+            cv.folds, cv.grouped_by
+        ),
+        "λ",
+        true,
+        &[("learned (held-out)", RGBColor(60, 130, 200), pts)],
+        Some(cv.chosen.max(1e-12)),
+    )
+}
+
+/// Fig. 5.5: test accuracy and perplexity against the number of training triplets.
+pub fn curve_svg(points: &[CurvePoint]) -> Result<String> {
+    let learned = points
+        .iter()
+        .map(|p| (p.triplets as f64, p.accuracy, p.perplexity))
+        .collect();
+    let uniform = points
+        .iter()
+        .map(|p| (p.triplets as f64, p.uniform_accuracy, p.uniform_perplexity))
+        .collect();
+    two_panel_svg(
+        "Learning curve (test triplets)",
+        "training triplets",
+        true,
+        &[
+            ("learned", RGBColor(60, 130, 200), learned),
+            ("uniform", RGBColor(150, 150, 150), uniform),
+        ],
+        None,
+    )
+}
+
+fn fonts() -> Arc<usvg::fontdb::Database> {
+    static FONTS: OnceLock<Arc<usvg::fontdb::Database>> = OnceLock::new();
+    FONTS
+        .get_or_init(|| {
+            let mut db = usvg::fontdb::Database::new();
+            db.load_system_fonts();
+            // fontdb maps the generic `sans-serif` to Arial, which Linux rarely has: point it
+            // at an installed sans face so chart text renders.
+            let sans = usvg::fontdb::Query {
+                families: &[usvg::fontdb::Family::SansSerif],
+                ..usvg::fontdb::Query::default()
+            };
+            if db.query(&sans).is_none() {
+                let has = |name: &str| {
+                    db.faces()
+                        .any(|f| f.families.iter().any(|(n, _)| n == name))
+                };
+                let pick = ["DejaVu Sans", "Liberation Sans", "Noto Sans", "FreeSans"]
+                    .into_iter()
+                    .find(|n| has(n))
+                    .map(str::to_owned)
+                    .or_else(|| {
+                        db.faces()
+                            .next()
+                            .and_then(|f| f.families.first().map(|x| x.0.clone()))
+                    });
+                if let Some(name) = pick {
+                    db.set_sans_serif_family(name);
+                }
+            }
+            Arc::new(db)
+        })
+        .clone()
+}
+
+/// Renders chart SVG text to PNG bytes at its own size on white.
+pub fn svg_to_png(svg: &str, path: &Path) -> Result<Vec<u8>> {
+    let e = plot_err(path);
+    let options = usvg::Options {
+        fontdb: fonts(),
+        ..usvg::Options::default()
+    };
+    let tree = usvg::Tree::from_str(svg, &options).map_err(|x| e(x.to_string()))?;
+    let size = tree.size().to_int_size();
+    let mut pixmap = tiny_skia::Pixmap::new(size.width(), size.height())
+        .ok_or_else(|| e("empty chart".into()))?;
+    pixmap.fill(tiny_skia::Color::WHITE);
+    resvg::render(
+        &tree,
+        tiny_skia::Transform::identity(),
+        &mut pixmap.as_mut(),
+    );
+    pixmap.encode_png().map_err(|x| e(x.to_string()))
+}
+
+fn write(path: &Path, bytes: &[u8]) -> Result<()> {
+    std::fs::write(path, bytes).map_err(|source| Error::CannotWrite {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Writes `<name>.svg` and `<name>.png` into `dir`; returns the file stem.
+fn write_chart(dir: &Path, name: &str, svg: &str) -> Result<String> {
+    write(&dir.join(format!("{name}.svg")), svg.as_bytes())?;
+    let png_path = dir.join(format!("{name}.png"));
+    let png = svg_to_png(svg, &png_path)?;
+    write(&png_path, &png)?;
+    Ok(name.to_owned())
+}
+
+fn html_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// Writes the figures and `index.html` into `dir` (created if needed); `extra_html` is inserted
+/// verbatim after the summary (e.g. evaluation tables). Returns the files written.
+pub fn write_report(
+    dir: &Path,
+    model: &Model,
+    curve: Option<&[CurvePoint]>,
+    extra_html: &str,
+) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|source| Error::CannotWrite {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut charts = vec![(
+        write_chart(dir, "weights", &weights_svg(model)?)?,
+        "Fig. 5.3 — learned weights by feature family",
+    )];
+    if let Some(cv) = &model.cv {
+        charts.push((
+            write_chart(dir, "lambda", &lambda_svg(cv)?)?,
+            "Fig. 5.4 — held-out accuracy and perplexity against λ",
+        ));
+    }
+    if let Some(points) = curve
+        && !points.is_empty()
+    {
+        charts.push((
+            write_chart(dir, "learning_curve", &curve_svg(points)?)?,
+            "Fig. 5.5 — learning curve",
+        ));
+        let json = serde_json::to_string_pretty(points).map_err(|source| Error::Json {
+            path: dir.join("learning_curve.json"),
+            source,
+        })?;
+        write(&dir.join("learning_curve.json"), json.as_bytes())?;
+    }
+    let mut top: Vec<(&String, f64)> = model
+        .feature_names
+        .iter()
+        .zip(model.weights.iter().copied())
+        .filter(|(_, w)| *w > 0.0)
+        .collect();
+    top.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let mut html = String::from(
+        "<!doctype html><meta charset=\"utf-8\"><title>Style metric report</title>\
+         <style>body{font-family:sans-serif;max-width:1040px;margin:2em auto}\
+         table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}\
+         img{max-width:100%}</style><h1>Style metric report</h1>",
+    );
+    html.push_str(&format!(
+        "<p>λ = {:.4} · {} of {} weights non-zero (threshold {}) · {} training triplets over {} \
+         items · solver {:?}: {} iterations, {} evaluations, objective {:.6}, converged {} ({}) · \
+         data sha256 <code>{}</code></p>",
+        model.lambda,
+        model.nonzero,
+        model.weights.len(),
+        model.zero_threshold,
+        model.data.triplets,
+        model.data.items,
+        model.solver.solver,
+        model.solver.iterations,
+        model.solver.evaluations,
+        model.solver.objective,
+        model.solver.converged,
+        html_escape(&model.solver.reason),
+        model.data.sha256
+    ));
+    html.push_str(extra_html);
+    for (name, caption) in &charts {
+        html.push_str(&format!(
+            "<figure><img src=\"{name}.svg\" alt=\"{caption}\"><figcaption>{caption} \
+             (<a href=\"{name}.png\">PNG</a>)</figcaption></figure>"
+        ));
+    }
+    html.push_str("<h2>Non-zero weights</h2><table><tr><th>feature</th><th>weight</th></tr>");
+    for (name, w) in top {
+        html.push_str(&format!(
+            "<tr><td style=\"text-align:left\">{}</td><td>{w:.4}</td></tr>",
+            html_escape(name)
+        ));
+    }
+    html.push_str("</table>");
+    write(&dir.join("index.html"), html.as_bytes())?;
+    let mut files = vec![dir.join("index.html")];
+    for (name, _) in &charts {
+        files.push(dir.join(format!("{name}.svg")));
+        files.push(dir.join(format!("{name}.png")));
+    }
+    Ok(files)
+}
