@@ -23,6 +23,9 @@ pub enum AppError {
     /// The request conflicts with stored state (e.g. a different answer to an answered question).
     #[error("{0}")]
     Conflict(String),
+    /// The body has the wrong content type.
+    #[error("{0}")]
+    UnsupportedMediaType(String),
     /// The upload or body is too large.
     #[error("{0}")]
     TooLarge(String),
@@ -55,6 +58,7 @@ impl AppError {
             Self::Forbidden(_) => StatusCode::FORBIDDEN,
             Self::Conflict(_) => StatusCode::CONFLICT,
             Self::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
+            Self::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
             Self::Database(sqlx::Error::PoolTimedOut) => StatusCode::SERVICE_UNAVAILABLE,
             Self::Database(_) | Self::Migrate(_) | Self::Internal(_) => {
                 StatusCode::INTERNAL_SERVER_ERROR

@@ -12,6 +12,8 @@ use crate::error::AppError;
 fn rejected(status: StatusCode, text: String) -> AppError {
     if status == StatusCode::PAYLOAD_TOO_LARGE {
         AppError::TooLarge("request body too large".into())
+    } else if status == StatusCode::UNSUPPORTED_MEDIA_TYPE {
+        AppError::UnsupportedMediaType(text)
     } else {
         AppError::BadRequest(text)
     }

@@ -14,7 +14,7 @@ use sha2::Sha256;
 use sqlx::Row;
 use utoipa::ToSchema;
 
-use crate::db::{Db, now_ms};
+use crate::db::{Backend, Db, now_ms};
 use crate::error::{AppError, Result};
 use crate::ids::{AssignmentId, ItemId, StudyId, TupleId, WorkerId, random_token};
 use crate::qc;
@@ -626,50 +626,41 @@ pub async fn allocate(
         return Ok(0);
     }
     let now = now_ms();
+    // One claim per statement: the first free slot (in tuple order) of a tuple this worker has
+    // not seen. PostgreSQL locks only that row and skips rows other allocators are claiming, so
+    // concurrent allocations neither wait on nor deadlock with each other; the outer
+    // `assignment_id IS NULL` is the final guard against a double fill. On SQLite,
+    // `BEGIN IMMEDIATE` already serialises writers.
+    let sql = match db.backend {
+        Backend::Sqlite => {
+            "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
+             WHERE assignment_id IS NULL AND id = (SELECT s.id FROM slots s \
+               WHERE s.study_id = $4 AND s.assignment_id IS NULL \
+               AND NOT EXISTS (SELECT 1 FROM slots w WHERE w.tuple_id = s.tuple_id AND w.worker_id = $2) \
+               ORDER BY s.seq, s.replica LIMIT 1) \
+             RETURNING id, tuple_id"
+        }
+        Backend::Postgres => {
+            "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
+             WHERE assignment_id IS NULL AND id = (SELECT s.id FROM slots s \
+               WHERE s.study_id = $4 AND s.assignment_id IS NULL \
+               AND NOT EXISTS (SELECT 1 FROM slots w WHERE w.tuple_id = s.tuple_id AND w.worker_id = $2) \
+               ORDER BY s.seq, s.replica LIMIT 1 FOR UPDATE OF s SKIP LOCKED) \
+             RETURNING id, tuple_id"
+        }
+    };
     let mut claimed: Vec<(i64, i64)> = Vec::with_capacity(wanted);
-    for _round in 0..4 {
-        if claimed.len() >= wanted {
-            break;
-        }
-        let window = ((wanted - claimed.len()) * 8) as i64;
-        let rows = sqlx::query(
-            "SELECT s.id, s.tuple_id FROM slots s WHERE s.study_id = $1 AND s.assignment_id IS NULL \
-             AND NOT EXISTS (SELECT 1 FROM slots w WHERE w.tuple_id = s.tuple_id AND w.worker_id = $2) \
-             ORDER BY s.seq, s.replica LIMIT $3",
-        )
-        .bind(study.id.0)
-        .bind(worker.0)
-        .bind(window)
-        .fetch_all(&mut *tx)
-        .await?;
-        if rows.is_empty() {
-            break;
-        }
-        let mut candidates: Vec<(i64, i64)> = rows
-            .iter()
-            .map(|r| Ok((r.try_get("id")?, r.try_get("tuple_id")?)))
-            .collect::<Result<_, sqlx::Error>>()?;
-        candidates.shuffle(&mut rng);
-        for (slot, tuple) in candidates {
-            if claimed.len() >= wanted {
-                break;
-            }
-            if claimed.iter().any(|&(_, t)| t == tuple) {
-                continue;
-            }
-            let got = sqlx::query(
-                "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
-                 WHERE id = $4 AND assignment_id IS NULL",
-            )
+    while claimed.len() < wanted {
+        let row = sqlx::query(sql)
             .bind(assignment.0)
             .bind(worker.0)
             .bind(now)
-            .bind(slot)
-            .execute(&mut *tx)
+            .bind(study.id.0)
+            .fetch_optional(&mut *tx)
             .await?;
-            if got.rows_affected() == 1 {
-                claimed.push((slot, tuple));
-            }
+        match row {
+            Some(r) => claimed.push((r.try_get("id")?, r.try_get("tuple_id")?)),
+            None => break,
         }
     }
     if claimed.is_empty() {

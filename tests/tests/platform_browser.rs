@@ -62,7 +62,7 @@ async fn browser(profile: &Path) -> Option<(Driver, Client)> {
             ]
         }
     });
-    let caps = caps.as_object().expect("object").clone().into_iter().collect();
+    let caps: fantoccini::wd::Capabilities = caps.as_object().expect("object").clone();
     let connector = hyper_util::client::legacy::connect::HttpConnector::new();
     for _ in 0..100 {
         match ClientBuilder::new(connector.clone())
