@@ -3,17 +3,17 @@
 //! that every state-changing admin request must echo (form field `csrf` or header
 //! `x-csrf-token`).
 
-use argon2::password_hash::{PasswordHash, PasswordHasher, PasswordVerifier, SaltString};
 use argon2::Argon2;
+use argon2::password_hash::{PasswordHash, PasswordHasher, PasswordVerifier, SaltString};
 use axum::extract::FromRequestParts;
 use axum::http::request::Parts;
 use sha2::{Digest, Sha256};
 use sqlx::Row;
 
+use crate::AppState;
 use crate::db::{Db, now_ms};
 use crate::error::{AppError, Result};
 use crate::ids::{AdminId, random_token};
-use crate::AppState;
 
 /// Name of the session cookie.
 pub const COOKIE: &str = "platform_session";
@@ -91,7 +91,11 @@ pub async fn login(db: &Db, username: &str, password: &str) -> Result<Option<(St
     let password = password.to_string();
     let ok = tokio::task::spawn_blocking(move || {
         PasswordHash::new(&stored)
-            .map(|h| Argon2::default().verify_password(password.as_bytes(), &h).is_ok())
+            .map(|h| {
+                Argon2::default()
+                    .verify_password(password.as_bytes(), &h)
+                    .is_ok()
+            })
             .unwrap_or(false)
     })
     .await
@@ -105,13 +109,15 @@ pub async fn login(db: &Db, username: &str, password: &str) -> Result<Option<(St
         .bind(now_ms())
         .execute(&db.pool)
         .await?;
-    sqlx::query("INSERT INTO sessions (token_hash, admin_id, csrf, expires_at) VALUES ($1, $2, $3, $4)")
-        .bind(hash_token(&token))
-        .bind(id)
-        .bind(&csrf)
-        .bind(now_ms() + SESSION_MS)
-        .execute(&db.pool)
-        .await?;
+    sqlx::query(
+        "INSERT INTO sessions (token_hash, admin_id, csrf, expires_at) VALUES ($1, $2, $3, $4)",
+    )
+    .bind(hash_token(&token))
+    .bind(id)
+    .bind(&csrf)
+    .bind(now_ms() + SESSION_MS)
+    .execute(&db.pool)
+    .await?;
     Ok(Some((token, csrf)))
 }
 

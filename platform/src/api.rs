@@ -11,36 +11,81 @@ use axum::routing::{get, post};
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 
+use crate::AppState;
 use crate::admin::Admin;
 use crate::dashboard::{self, Dashboard, WorkerRow};
 use crate::error::{AppError, ErrorBody, Result};
 use crate::export::{self, ExportOptions};
 use crate::extract::{ApiJson, ApiPath, ApiQuery};
 use crate::flow::{
-    self, AnswerAck, AnswerRequest, AssignmentState, Demographics, Handback, ItemRef,
-    QuestionView, ReasonsRequest, Source, StartOutcome, StartRequest, TrainingAnswer,
-    TrainingFeedback, TrainingResult,
+    self, AnswerAck, AnswerRequest, AssignmentState, Demographics, Handback, ItemRef, QuestionView,
+    ReasonsRequest, Source, StartOutcome, StartRequest, TrainingAnswer, TrainingFeedback,
+    TrainingResult,
 };
 use crate::ids::{AssignmentId, LibraryId, StudyId};
 use crate::qc::{self, DecisionRecord, RuleOutcome};
 use crate::study::{self, MturkMode, PoolSummary, StudySettings};
-use crate::AppState;
 
 /// The OpenAPI document.
 #[derive(OpenApi)]
 #[openapi(
     info(title = "Style rating-study platform", version = "1"),
     paths(
-        healthz, study_info, start, assignment_state, training, give_up, answer, reasons,
-        admin_session, admin_studies, admin_create_study, admin_dashboard, admin_workers,
-        admin_audit, admin_qc, admin_decision, admin_export
+        healthz,
+        study_info,
+        start,
+        assignment_state,
+        training,
+        give_up,
+        answer,
+        reasons,
+        admin_session,
+        admin_studies,
+        admin_create_study,
+        admin_dashboard,
+        admin_workers,
+        admin_audit,
+        admin_qc,
+        admin_decision,
+        admin_export,
+        admin_curated,
+        admin_verify_code
     ),
     components(schemas(
-        ErrorBody, StudyInfo, StartRequest, StartOutcome, Source, Demographics, AssignmentState,
-        QuestionView, ItemRef, Handback, TrainingRequest, TrainingAnswer, TrainingResult,
-        TrainingFeedback, AnswerRequest, AnswerAck, ReasonsRequest, OkBody, SessionInfo, StudySummary,
-        CreateStudy, Created, PoolSummary, StudySettings, MturkMode, Dashboard, WorkerRow,
-        DecisionRecord, QcRequest, RuleOutcome, DecisionRequest
+        ErrorBody,
+        StudyInfo,
+        StartRequest,
+        StartOutcome,
+        Source,
+        Demographics,
+        AssignmentState,
+        QuestionView,
+        ItemRef,
+        Handback,
+        TrainingRequest,
+        TrainingAnswer,
+        TrainingResult,
+        TrainingFeedback,
+        AnswerRequest,
+        AnswerAck,
+        ReasonsRequest,
+        OkBody,
+        SessionInfo,
+        StudySummary,
+        CreateStudy,
+        Created,
+        PoolSummary,
+        StudySettings,
+        MturkMode,
+        Dashboard,
+        WorkerRow,
+        DecisionRecord,
+        QcRequest,
+        RuleOutcome,
+        DecisionRequest,
+        CuratedRequest,
+        CuratedCreated,
+        CodeCheck
     ))
 )]
 pub struct ApiDoc;
@@ -62,7 +107,10 @@ pub fn routes() -> Router<AppState> {
             "/api/v1/admin/studies",
             get(admin_studies).post(admin_create_study),
         )
-        .route("/api/v1/admin/studies/{study}/dashboard", get(admin_dashboard))
+        .route(
+            "/api/v1/admin/studies/{study}/dashboard",
+            get(admin_dashboard),
+        )
         .route("/api/v1/admin/studies/{study}/workers", get(admin_workers))
         .route("/api/v1/admin/studies/{study}/audit", get(admin_audit))
         .route("/api/v1/admin/studies/{study}/qc", post(admin_qc))
@@ -70,7 +118,15 @@ pub fn routes() -> Router<AppState> {
             "/api/v1/admin/studies/{study}/assignments/{assignment}/decision",
             post(admin_decision),
         )
-        .route("/api/v1/admin/studies/{study}/export/{file}", get(admin_export))
+        .route(
+            "/api/v1/admin/studies/{study}/export/{file}",
+            get(admin_export),
+        )
+        .route("/api/v1/admin/studies/{study}/curated", post(admin_curated))
+        .route(
+            "/api/v1/admin/studies/{study}/codes/{code}",
+            get(admin_verify_code),
+        )
 }
 
 async fn openapi() -> Json<utoipa::openapi::OpenApi> {
@@ -182,7 +238,9 @@ async fn training(
     }
     let a = flow::by_token(&state.db, &token).await?;
     let s = flow::study_of(&state.db, &a).await?;
-    Ok(Json(flow::submit_training(&state.db, &s, &a, &req.answers).await?))
+    Ok(Json(
+        flow::submit_training(&state.db, &s, &a, &req.answers).await?,
+    ))
 }
 
 /// Gives up the training (screen-out code, not a rejection).
@@ -263,7 +321,10 @@ pub struct StudySummary {
 /// All studies.
 #[utoipa::path(get, path = "/api/v1/admin/studies",
     responses((status = 200, body = Vec<StudySummary>), (status = 401, body = ErrorBody)))]
-async fn admin_studies(_admin: Admin, State(state): State<AppState>) -> Result<Json<Vec<StudySummary>>> {
+async fn admin_studies(
+    _admin: Admin,
+    State(state): State<AppState>,
+) -> Result<Json<Vec<StudySummary>>> {
     Ok(Json(
         study::list(&state.db)
             .await?
@@ -458,4 +519,70 @@ pub async fn export_file(
         ],
         bytes,
     ))
+}
+
+/// A curated control or training triplet, by item names; `b` is the expected answer.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CuratedRequest {
+    /// `control` or `training`.
+    pub kind: String,
+    /// Reference item name.
+    pub a: String,
+    /// The item closer in style to `a` (the expected answer).
+    pub b: String,
+    /// The other item.
+    pub c: String,
+}
+
+/// The stored curated triplet.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct CuratedCreated {
+    /// Tuple id.
+    pub id: crate::ids::TupleId,
+}
+
+/// Adds a curated control or training triplet (CSRF header required).
+#[utoipa::path(post, path = "/api/v1/admin/studies/{study}/curated", params(("study" = i64, Path)),
+    request_body = CuratedRequest,
+    responses((status = 200, body = CuratedCreated), (status = 400, body = ErrorBody),
+              (status = 401, body = ErrorBody), (status = 403, body = ErrorBody)))]
+async fn admin_curated(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<StudyId>,
+    ApiJson(req): ApiJson<CuratedRequest>,
+) -> Result<Json<CuratedCreated>> {
+    let s = study::load(&state.db, id).await?;
+    let tuple = study::add_curated(&state.db, &s, &req.kind, [&req.a, &req.b, &req.c]).await?;
+    Ok(Json(CuratedCreated { id: tuple }))
+}
+
+/// Which assignment a completion code belongs to.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct CodeCheck {
+    /// Whether the code is a valid completion code of this study.
+    pub valid: bool,
+    /// The assignment it belongs to.
+    pub assignment: Option<AssignmentId>,
+}
+
+/// Checks a completion code a worker submitted.
+#[utoipa::path(get, path = "/api/v1/admin/studies/{study}/codes/{code}",
+    params(("study" = i64, Path), ("code" = String, Path)),
+    responses((status = 200, body = CodeCheck), (status = 401, body = ErrorBody)))]
+async fn admin_verify_code(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath((id, code)): ApiPath<(StudyId, String)>,
+) -> Result<Json<CodeCheck>> {
+    if code.len() > 64 {
+        return Err(AppError::BadRequest("code: at most 64 characters".into()));
+    }
+    let s = study::load(&state.db, id).await?;
+    let assignment = flow::verify_code(&state.db, &s, &code).await?;
+    Ok(Json(CodeCheck {
+        valid: assignment.is_some(),
+        assignment,
+    }))
 }

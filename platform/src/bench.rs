@@ -15,12 +15,12 @@ use std::time::{Duration, Instant};
 use clap::Args;
 use sqlx::Row;
 
+use crate::AppState;
 use crate::db::Db;
 use crate::error::{AppError, Result};
 use crate::ids::StudyId;
 use crate::library::{self, NewItem};
 use crate::study::{self, StudySettings};
-use crate::AppState;
 
 /// Benchmark settings.
 #[derive(Debug, Clone, Args)]
@@ -91,15 +91,19 @@ async fn prepare(db: &Db, workers: usize, seconds: u64) -> Result<StudyId> {
             library::insert_item(db, lib, swatch(i)).await?;
         }
     }
-    // Enough slots for every worker to run several HITs at the expected rate.
-    let tuples = (workers * 45 * 3).max((seconds as usize) * 3000).min(400_000) as u32;
+    // A HIT for every worker plus headroom for ~2000 answers/s.
+    let tuples = (workers * 45 + (seconds as usize) * 2000).min(400_000) as u32;
     let settings = StudySettings {
         training_questions: 0,
         tuples,
         seed: crate::db::now_ms() as u64,
         ..StudySettings::default()
     };
-    Ok(study::create(db, &format!("bench {workers}"), lib, settings).await?.0)
+    Ok(
+        study::create(db, &format!("bench {workers}"), lib, settings)
+            .await?
+            .0,
+    )
 }
 
 async fn healthz_phase(base: &str, workers: usize, seconds: u64) -> Measurement {
@@ -246,7 +250,15 @@ pub async fn run(args: BenchArgs) -> Result<()> {
     );
     println!(
         "{:>8} | {:>12} {:>9} {:>9} | {:>12} {:>9} {:>9} {:>7} | {:>8}",
-        "workers", "healthz/s", "p50 ms", "p99 ms", "answers/s", "p50 ms", "p99 ms", "errors", "ratio"
+        "workers",
+        "healthz/s",
+        "p50 ms",
+        "p99 ms",
+        "answers/s",
+        "p50 ms",
+        "p99 ms",
+        "errors",
+        "ratio"
     );
     for &w in &args.workers {
         let study = prepare(&db, w, args.seconds).await?;

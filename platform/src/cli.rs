@@ -48,7 +48,11 @@ pub enum Command {
 #[derive(Debug, Clone, Args)]
 pub struct DbArgs {
     /// `sqlite://PATH` (created if missing) or `postgres://USER:PASS@HOST/DB`.
-    #[arg(long, env = "PLATFORM_DATABASE_URL", default_value = "sqlite://platform.db")]
+    #[arg(
+        long,
+        env = "PLATFORM_DATABASE_URL",
+        default_value = "sqlite://platform.db"
+    )]
     pub database_url: String,
     /// Connection pool size.
     #[arg(long, env = "PLATFORM_MAX_CONNECTIONS", default_value_t = 16)]
@@ -59,9 +63,7 @@ impl DbArgs {
     /// Connects and migrates.
     pub async fn connect(&self) -> Result<Db> {
         if !(1..=1000).contains(&self.max_connections) {
-            return Err(AppError::BadRequest(
-                "--max-connections: 1..=1000".into(),
-            ));
+            return Err(AppError::BadRequest("--max-connections: 1..=1000".into()));
         }
         Db::connect(&self.database_url, self.max_connections).await
     }
@@ -198,7 +200,11 @@ pub struct ExportArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Public base address for the ExternalQuestion.
-    #[arg(long, env = "PLATFORM_PUBLIC_URL", default_value = "http://127.0.0.1:8080")]
+    #[arg(
+        long,
+        env = "PLATFORM_PUBLIC_URL",
+        default_value = "http://127.0.0.1:8080"
+    )]
     pub public_url: String,
     /// Include hidden-control answers.
     #[arg(long)]
@@ -233,7 +239,9 @@ pub async fn run(cli: Cli) -> Result<()> {
             let db = args.db.connect().await?;
             eprintln!("database: {}", redact(&args.db.database_url));
             let (listener, state) = args.bind(db).await?;
-            crate::serve(listener, state).await.map_err(AppError::internal)
+            crate::serve(listener, state)
+                .await
+                .map_err(AppError::internal)
         }
         Command::Demo(args) => demo::run(args).await,
         Command::Library(LibraryCommand::Import {

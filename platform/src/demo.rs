@@ -55,10 +55,11 @@ pub async fn setup(db: &Db, fixtures: Option<PathBuf>) -> Result<(Study, Option<
             report.skipped.len()
         );
     }
-    let existing = sqlx::query("SELECT id FROM studies WHERE name = $1 ORDER BY created_at LIMIT 1")
-        .bind(DEMO_STUDY)
-        .fetch_optional(&db.pool)
-        .await?;
+    let existing =
+        sqlx::query("SELECT id FROM studies WHERE name = $1 ORDER BY created_at LIMIT 1")
+            .bind(DEMO_STUDY)
+            .fetch_optional(&db.pool)
+            .await?;
     let id = match existing {
         Some(r) => StudyId(r.try_get("id")?),
         None => {
@@ -135,7 +136,11 @@ pub async fn simulate(db: &Db, study: &Study, n: u32, seed: u64) -> Result<SimRe
                 // Spammers too get through the training (by retrying until they guess right,
                 // as real ones do); the hidden controls are what catches them.
                 let pick_right = true;
-                let wrong = if q.left.id.0 == right { q.right.id } else { q.left.id };
+                let wrong = if q.left.id.0 == right {
+                    q.right.id
+                } else {
+                    q.left.id
+                };
                 answers.push(TrainingAnswer {
                     position: q.position,
                     choice: if pick_right {
@@ -172,7 +177,11 @@ pub async fn simulate(db: &Db, study: &Study, n: u32, seed: u64) -> Result<SimRe
                 rng.random_bool(0.95)
             } else {
                 let truth_b = tuple % 2 == 0;
-                if rng.random_bool(0.8) { truth_b } else { !truth_b }
+                if rng.random_bool(0.8) {
+                    truth_b
+                } else {
+                    !truth_b
+                }
             };
             let req = AnswerRequest {
                 position: r.try_get("position")?,
@@ -210,13 +219,18 @@ pub async fn run(mut args: DemoArgs) -> Result<()> {
     let (listener, state) = args.server.bind(db).await?;
     let base = state.settings.public_url.trim_end_matches('/').to_string();
     match password {
-        Some(p) => println!("admin login: {base}/admin/login  user: admin  password (shown once): {p}"),
+        Some(p) => {
+            println!("admin login: {base}/admin/login  user: admin  password (shown once): {p}")
+        }
         None => println!(
             "admin login: {base}/admin/login  (password was printed when the account was created; \
              reset it with `platform admin create`)"
         ),
     }
-    println!("worker link: {base}/s/{}?participant=demo-worker-1", study.id);
+    println!(
+        "worker link: {base}/s/{}?participant=demo-worker-1",
+        study.id
+    );
     println!(
         "MTurk sandbox test: {base}/s/{}?assignmentId=A1&hitId=H1&workerId=W1&turkSubmitTo=https://workersandbox.mturk.com",
         study.id
@@ -224,5 +238,7 @@ pub async fn run(mut args: DemoArgs) -> Result<()> {
     if args.no_serve {
         return Ok(());
     }
-    crate::serve(listener, state).await.map_err(AppError::internal)
+    crate::serve(listener, state)
+        .await
+        .map_err(AppError::internal)
 }

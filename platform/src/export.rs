@@ -59,8 +59,14 @@ const DICTIONARY: &[(&str, &[(&str, &str)])] = &[
             ("a", "reference item (library item name)"),
             ("b", "first candidate item"),
             ("c", "second candidate item"),
-            ("q", "1 if the worker judged A closer in style to B, 0 if to C"),
-            ("worker", "pseudonymous worker id (HMAC of the study secret)"),
+            (
+                "q",
+                "1 if the worker judged A closer in style to B, 0 if to C",
+            ),
+            (
+                "worker",
+                "pseudonymous worker id (HMAC of the study secret)",
+            ),
             ("tuple_id", "id of the triplet; replicated tuples share it"),
         ],
     ),
@@ -73,7 +79,10 @@ const DICTIONARY: &[(&str, &[(&str, &str)])] = &[
             ("b", "first candidate"),
             ("c", "second candidate"),
             ("q", "1 if B was chosen"),
-            ("reasons", "chosen reason codes separated by ';' (attribute:code)"),
+            (
+                "reasons",
+                "chosen reason codes separated by ';' (attribute:code)",
+            ),
             ("text", "optional free text"),
         ],
     ),
@@ -147,7 +156,11 @@ pub async fn build(
         let decision: Option<String> = r.try_get("decision")?;
         let worker = pseudonym(study, WorkerId(r.try_get("worker_id")?));
         let tuple: i64 = r.try_get("tuple_id")?;
-        let q = if r.try_get::<String, _>("choice")? == "b" { "1" } else { "0" };
+        let q = if r.try_get::<String, _>("choice")? == "b" {
+            "1"
+        } else {
+            "0"
+        };
         let (a, b, c) = (
             name(r.try_get("a")?),
             name(r.try_get("b")?),
@@ -226,7 +239,12 @@ pub async fn build(
             .try_get::<Option<String>, _>("demographics")?
             .and_then(|d| serde_json::from_str(&d).ok())
             .unwrap_or_default();
-        let field = |k: &str| demo.get(k).and_then(|v| v.as_str()).unwrap_or("").to_string();
+        let field = |k: &str| {
+            demo.get(k)
+                .and_then(|v| v.as_str())
+                .unwrap_or("")
+                .to_string()
+        };
         let p = pseudonym(study, WorkerId(worker_id));
         workers.push(vec![
             p.clone(),
@@ -260,7 +278,8 @@ pub async fn build(
                 r.try_get::<Option<String>, _>("external_assignment")?
                     .unwrap_or_default(),
                 external.get(&worker_id).cloned().unwrap_or_default(),
-                r.try_get::<Option<String>, _>("hit_id")?.unwrap_or_default(),
+                r.try_get::<Option<String>, _>("hit_id")?
+                    .unwrap_or_default(),
                 if rejected { "" } else { "x" }.into(),
                 if rejected {
                     "Too many wrong answers on check questions with obvious answers.".into()
@@ -304,7 +323,11 @@ pub async fn build(
                   mturk_decisions.csv holds real MTurk ids for the batch approve/reject upload.",
     });
 
-    let xml = external_question_xml(&format!("{}/s/{}", public_url.trim_end_matches('/'), study.id));
+    let xml = external_question_xml(&format!(
+        "{}/s/{}",
+        public_url.trim_end_matches('/'),
+        study.id
+    ));
     let trip_cols = ["a", "b", "c", "q", "worker", "tuple_id"];
     Ok(vec![
         ("triplets.csv".into(), csv_bytes(&trip_cols, triplets)?),
@@ -353,7 +376,10 @@ pub async fn build(
         ),
         (
             "mturk_decisions.csv".into(),
-            csv_bytes(&["AssignmentId", "WorkerId", "HITId", "Approve", "Reject"], mturk)?,
+            csv_bytes(
+                &["AssignmentId", "WorkerId", "HITId", "Approve", "Reject"],
+                mturk,
+            )?,
         ),
         ("external_question.xml".into(), xml.into_bytes()),
         (

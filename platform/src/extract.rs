@@ -29,9 +29,11 @@ impl<S: Send + Sync, T: DeserializeOwned> FromRequest<S> for ApiJson<T> {
     async fn from_request(req: Request, state: &S) -> Result<Self, AppError> {
         match axum::Json::<T>::from_request(req, state).await {
             Ok(axum::Json(v)) => Ok(Self(v)),
-            Err(e @ JsonRejection::JsonDataError(_)) | Err(e @ JsonRejection::JsonSyntaxError(_)) => {
-                Err(AppError::BadRequest(format!("invalid JSON body: {}", e.body_text())))
-            }
+            Err(e @ JsonRejection::JsonDataError(_))
+            | Err(e @ JsonRejection::JsonSyntaxError(_)) => Err(AppError::BadRequest(format!(
+                "invalid JSON body: {}",
+                e.body_text()
+            ))),
             Err(e) => Err(rejected(e.status(), e.body_text())),
         }
     }

@@ -149,7 +149,11 @@ fn check_submit_to(value: &str, mode: MturkMode) -> Result<bool> {
     if sandbox != (mode == MturkMode::Sandbox) {
         return Err(AppError::BadRequest(format!(
             "this study runs on the MTurk {} site, but the HIT came from the {} site",
-            if mode == MturkMode::Sandbox { "SANDBOX" } else { "LIVE" },
+            if mode == MturkMode::Sandbox {
+                "SANDBOX"
+            } else {
+                "LIVE"
+            },
             if sandbox { "SANDBOX" } else { "LIVE" },
         )));
     }
@@ -158,13 +162,15 @@ fn check_submit_to(value: &str, mode: MturkMode) -> Result<bool> {
 
 /// Starts (or resumes) a worker's assignment.
 pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOutcome> {
-    let source = req.source.unwrap_or(if req.turk_submit_to.is_some() || req.hit_id.is_some() {
-        Source::Mturk
-    } else if req.prolific_session_id.is_some() {
-        Source::Prolific
-    } else {
-        Source::Direct
-    });
+    let source = req
+        .source
+        .unwrap_or(if req.turk_submit_to.is_some() || req.hit_id.is_some() {
+            Source::Mturk
+        } else if req.prolific_session_id.is_some() {
+            Source::Prolific
+        } else {
+            Source::Direct
+        });
     let sandbox = match source {
         Source::Mturk => {
             let submit = req
@@ -545,11 +551,13 @@ pub async fn submit_training(
     let status = if passed {
         "training"
     } else if attempt >= max {
-        sqlx::query("UPDATE assignments SET status = 'screened_out', completed_at = $1 WHERE id = $2")
-            .bind(now)
-            .bind(a.id.0)
-            .execute(&mut *tx)
-            .await?;
+        sqlx::query(
+            "UPDATE assignments SET status = 'screened_out', completed_at = $1 WHERE id = $2",
+        )
+        .bind(now)
+        .bind(a.id.0)
+        .execute(&mut *tx)
+        .await?;
         "screened_out"
     } else {
         "training"
@@ -719,7 +727,12 @@ pub struct AnswerAck {
 
 /// Stores an answer (idempotent: the same answer again is acknowledged as a duplicate; a
 /// different one is a conflict). Completes the assignment after its last answer.
-pub async fn answer(db: &Db, study: &Study, a: &Assignment, req: &AnswerRequest) -> Result<AnswerAck> {
+pub async fn answer(
+    db: &Db,
+    study: &Study,
+    a: &Assignment,
+    req: &AnswerRequest,
+) -> Result<AnswerAck> {
     if a.status != "active" && a.status != "completed" {
         return Err(AppError::Conflict(format!(
             "the assignment is {}, not answering questions",
@@ -845,13 +858,25 @@ async fn complete(db: &Db, study: &Study, a: AssignmentId) -> Result<()> {
 /// The reasons a worker may give, grouped by attribute (Garces et al. 2016 §6.3.2).
 pub const REASONS: &[(&str, &str, &str)] = &[
     ("colour", "colour_palette", "Similar colours"),
-    ("colour", "colour_saturation", "Similar saturation / brightness"),
+    (
+        "colour",
+        "colour_saturation",
+        "Similar saturation / brightness",
+    ),
     ("shading", "shading_flat", "Both flat / both shaded"),
-    ("shading", "shading_gradients", "Similar gradients or highlights"),
+    (
+        "shading",
+        "shading_gradients",
+        "Similar gradients or highlights",
+    ),
     ("texture", "texture", "Similar texture or pattern"),
     ("stroke", "stroke_width", "Similar outline thickness"),
     ("stroke", "stroke_presence", "Both have / lack outlines"),
-    ("shape", "shape_geometry", "Similar shapes (round, angular…)"),
+    (
+        "shape",
+        "shape_geometry",
+        "Similar shapes (round, angular…)",
+    ),
     ("shape", "shape_detail", "Similar level of detail"),
     ("other", "other", "Something else"),
 ];
@@ -1085,10 +1110,11 @@ pub fn code(secret: &str, kind: &str, a: AssignmentId) -> String {
 
 /// Finds the assignment a completion code belongs to (for requesters checking submissions).
 pub async fn verify_code(db: &Db, study: &Study, code_given: &str) -> Result<Option<AssignmentId>> {
-    let rows = sqlx::query("SELECT id FROM assignments WHERE study_id = $1 AND status = 'completed'")
-        .bind(study.id.0)
-        .fetch_all(&db.pool)
-        .await?;
+    let rows =
+        sqlx::query("SELECT id FROM assignments WHERE study_id = $1 AND status = 'completed'")
+            .bind(study.id.0)
+            .fetch_all(&db.pool)
+            .await?;
     let given = code_given.trim().to_ascii_uppercase();
     for r in rows {
         let id = AssignmentId(r.try_get("id")?);

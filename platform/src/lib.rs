@@ -61,7 +61,12 @@ pub struct AppState {
 
 impl AppState {
     /// Bundles a database and settings.
-    pub fn new(db: db::Db, public_url: String, secure_cookies: bool, max_body_bytes: usize) -> Self {
+    pub fn new(
+        db: db::Db,
+        public_url: String,
+        secure_cookies: bool,
+        max_body_bytes: usize,
+    ) -> Self {
         Self {
             db,
             settings: Arc::new(ServerSettings {
@@ -110,7 +115,8 @@ pub async fn serve(listener: tokio::net::TcpListener, state: AppState) -> std::i
             #[cfg(unix)]
             {
                 let mut term =
-                    match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+                    match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+                    {
                         Ok(t) => t,
                         Err(_) => {
                             let _ = ctrl_c.await;

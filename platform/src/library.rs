@@ -148,7 +148,8 @@ pub fn read_styles(path: &Path) -> Result<HashMap<String, String>> {
     };
     let mut styles = HashMap::new();
     for record in reader.records() {
-        let record = record.map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))?;
+        let record =
+            record.map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))?;
         if let (Some(f), Some(s)) = (record.get(file_col), record.get(style_col))
             && !s.trim().is_empty()
         {
@@ -324,6 +325,9 @@ mod tests {
             Err(AppError::TooLarge(_))
         ));
         let ok = br#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><rect width="5" height="5" fill="red"/></svg>"#;
-        assert_eq!(validate_upload("a.svg", ok).map(|i| i.width()).ok(), Some(400));
+        assert_eq!(
+            validate_upload("a.svg", ok).map(|i| i.width()).ok(),
+            Some(400)
+        );
     }
 }

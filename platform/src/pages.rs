@@ -147,49 +147,60 @@ async fn start_page(
     ApiPath(id): ApiPath<StudyId>,
     ApiQuery(q): ApiQuery<StartQuery>,
 ) -> Response {
-    page(async {
-        let s = study::load(&state.db, id).await?;
-        let mturk = q.turk_submit_to.is_some() || q.assignment_id.is_some();
-        let preview = q.assignment_id.as_deref() == Some(flow::MTURK_PREVIEW);
-        let sandbox = mturk && s.settings.mturk_mode == MturkMode::Sandbox;
-        if !preview && q.worker_id.is_none() && q.prolific_pid.is_none() && q.participant.is_none() {
-            return Err(AppError::BadRequest(
-                "this link has no participant id (workerId, PROLIFIC_PID or participant)".into(),
-            ));
-        }
-        let mut hidden = Vec::new();
-        let mut push = |k: &'static str, v: &Option<String>| {
-            if let Some(v) = v {
-                hidden.push((k, v.clone()));
+    page(
+        async {
+            let s = study::load(&state.db, id).await?;
+            let mturk = q.turk_submit_to.is_some() || q.assignment_id.is_some();
+            let preview = q.assignment_id.as_deref() == Some(flow::MTURK_PREVIEW);
+            let sandbox = mturk && s.settings.mturk_mode == MturkMode::Sandbox;
+            if !preview
+                && q.worker_id.is_none()
+                && q.prolific_pid.is_none()
+                && q.participant.is_none()
+            {
+                return Err(AppError::BadRequest(
+                    "this link has no participant id (workerId, PROLIFIC_PID or participant)"
+                        .into(),
+                ));
             }
-        };
-        push("assignment_id", &q.assignment_id);
-        push("hit_id", &q.hit_id);
-        push("turk_submit_to", &q.turk_submit_to);
-        push("prolific_study_id", &q.prolific_study);
-        push("prolific_session_id", &q.prolific_session);
-        let worker = q.worker_id.clone().or(q.prolific_pid.clone()).or(q.participant.clone());
-        push("worker_id", &worker);
-        let source = if mturk {
-            "mturk"
-        } else if q.prolific_pid.is_some() {
-            "prolific"
-        } else {
-            "direct"
-        };
-        hidden.push(("source", source.to_string()));
-        render(&StartPage {
-            study: s.id,
-            name: s.name.clone(),
-            description: s.settings.description.clone(),
-            questions: s.settings.questions_per_hit,
-            training: s.settings.training_questions,
-            preview,
-            sandbox,
-            hidden,
-        })
-    }
-    .await)
+            let mut hidden = Vec::new();
+            let mut push = |k: &'static str, v: &Option<String>| {
+                if let Some(v) = v {
+                    hidden.push((k, v.clone()));
+                }
+            };
+            push("assignment_id", &q.assignment_id);
+            push("hit_id", &q.hit_id);
+            push("turk_submit_to", &q.turk_submit_to);
+            push("prolific_study_id", &q.prolific_study);
+            push("prolific_session_id", &q.prolific_session);
+            let worker = q
+                .worker_id
+                .clone()
+                .or(q.prolific_pid.clone())
+                .or(q.participant.clone());
+            push("worker_id", &worker);
+            let source = if mturk {
+                "mturk"
+            } else if q.prolific_pid.is_some() {
+                "prolific"
+            } else {
+                "direct"
+            };
+            hidden.push(("source", source.to_string()));
+            render(&StartPage {
+                study: s.id,
+                name: s.name.clone(),
+                description: s.settings.description.clone(),
+                questions: s.settings.questions_per_hit,
+                training: s.settings.training_questions,
+                preview,
+                sandbox,
+                hidden,
+            })
+        }
+        .await,
+    )
 }
 
 #[derive(Debug, Deserialize)]
@@ -210,33 +221,35 @@ async fn start_submit(
     ApiPath(id): ApiPath<StudyId>,
     form: std::result::Result<ApiForm<StartForm>, AppError>,
 ) -> Response {
-    page(async {
-        let ApiForm(f) = form?;
-        let s = study::load(&state.db, id).await?;
-        let empty_none = |v: Option<String>| v.filter(|x| !x.is_empty());
-        let req = StartRequest {
-            source: Some(f.source),
-            worker_id: f.worker_id,
-            assignment_id: f.assignment_id,
-            hit_id: f.hit_id,
-            turk_submit_to: f.turk_submit_to,
-            prolific_study_id: f.prolific_study_id,
-            prolific_session_id: f.prolific_session_id,
-            demographics: Some(Demographics {
-                gender: empty_none(f.gender),
-                art_experience: empty_none(f.art_experience),
-            }),
-        };
-        match flow::start(&state.db, &s, req).await? {
-            StartOutcome::Started { token, .. } => {
-                Ok(Redirect::to(&format!("/a/{token}")).into_response())
+    page(
+        async {
+            let ApiForm(f) = form?;
+            let s = study::load(&state.db, id).await?;
+            let empty_none = |v: Option<String>| v.filter(|x| !x.is_empty());
+            let req = StartRequest {
+                source: Some(f.source),
+                worker_id: f.worker_id,
+                assignment_id: f.assignment_id,
+                hit_id: f.hit_id,
+                turk_submit_to: f.turk_submit_to,
+                prolific_study_id: f.prolific_study_id,
+                prolific_session_id: f.prolific_session_id,
+                demographics: Some(Demographics {
+                    gender: empty_none(f.gender),
+                    art_experience: empty_none(f.art_experience),
+                }),
+            };
+            match flow::start(&state.db, &s, req).await? {
+                StartOutcome::Started { token, .. } => {
+                    Ok(Redirect::to(&format!("/a/{token}")).into_response())
+                }
+                StartOutcome::Preview { .. } => Err(AppError::BadRequest(
+                    "accept the HIT before starting".into(),
+                )),
             }
-            StartOutcome::Preview { .. } => Err(AppError::BadRequest(
-                "accept the HIT before starting".into(),
-            )),
         }
-    }
-    .await)
+        .await,
+    )
 }
 
 #[derive(Template)]
@@ -380,42 +393,49 @@ async fn training_submit(
     ApiPath(token): ApiPath<String>,
     form: std::result::Result<ApiForm<Vec<(String, String)>>, AppError>,
 ) -> Response {
-    page(async {
-        let ApiForm(pairs) = form?;
-        let a = flow::by_token(&state.db, &token).await?;
-        let s = flow::study_of(&state.db, &a).await?;
-        let mut answers = Vec::new();
-        for (k, v) in pairs.iter().take(100) {
-            let position = k
-                .strip_prefix('q')
-                .and_then(|p| p.parse::<i64>().ok())
-                .ok_or_else(|| AppError::BadRequest(format!("unexpected field {k:?}")))?;
-            let choice = v
-                .parse()
-                .map_err(|_| AppError::BadRequest(format!("{k}: not an item id")))?;
-            answers.push(flow::TrainingAnswer { position, choice });
+    page(
+        async {
+            let ApiForm(pairs) = form?;
+            let a = flow::by_token(&state.db, &token).await?;
+            let s = flow::study_of(&state.db, &a).await?;
+            let mut answers = Vec::new();
+            for (k, v) in pairs.iter().take(100) {
+                let position = k
+                    .strip_prefix('q')
+                    .and_then(|p| p.parse::<i64>().ok())
+                    .ok_or_else(|| AppError::BadRequest(format!("unexpected field {k:?}")))?;
+                let choice = v
+                    .parse()
+                    .map_err(|_| AppError::BadRequest(format!("{k}: not an item id")))?;
+                answers.push(flow::TrainingAnswer { position, choice });
+            }
+            let result = flow::submit_training(&state.db, &s, &a, &answers).await?;
+            if result.passed || result.status == "screened_out" {
+                return Ok(Redirect::to(&format!("/a/{token}")).into_response());
+            }
+            show_assignment(
+                &state,
+                &token,
+                Some(result.feedback.iter().map(|f| f.correct).collect()),
+            )
+            .await
         }
-        let result = flow::submit_training(&state.db, &s, &a, &answers).await?;
-        if result.passed || result.status == "screened_out" {
-            return Ok(Redirect::to(&format!("/a/{token}")).into_response());
-        }
-        show_assignment(
-            &state,
-            &token,
-            Some(result.feedback.iter().map(|f| f.correct).collect()),
-        )
-        .await
-    }
-    .await)
+        .await,
+    )
 }
 
-async fn give_up_submit(State(state): State<AppState>, ApiPath(token): ApiPath<String>) -> Response {
-    page(async {
-        let a = flow::by_token(&state.db, &token).await?;
-        flow::give_up(&state.db, &a).await?;
-        Ok(Redirect::to(&format!("/a/{token}")).into_response())
-    }
-    .await)
+async fn give_up_submit(
+    State(state): State<AppState>,
+    ApiPath(token): ApiPath<String>,
+) -> Response {
+    page(
+        async {
+            let a = flow::by_token(&state.db, &token).await?;
+            flow::give_up(&state.db, &a).await?;
+            Ok(Redirect::to(&format!("/a/{token}")).into_response())
+        }
+        .await,
+    )
 }
 
 #[derive(Debug, Deserialize)]
@@ -430,19 +450,21 @@ async fn answer_submit(
     ApiPath(token): ApiPath<String>,
     form: std::result::Result<ApiForm<AnswerForm>, AppError>,
 ) -> Response {
-    page(async {
-        let ApiForm(f) = form?;
-        let a = flow::by_token(&state.db, &token).await?;
-        let s = flow::study_of(&state.db, &a).await?;
-        let req = flow::AnswerRequest {
-            position: f.position,
-            choice: f.choice,
-            elapsed_ms: f.elapsed_ms.and_then(|v| v.parse().ok()),
-        };
-        flow::answer(&state.db, &s, &a, &req).await?;
-        Ok(Redirect::to(&format!("/a/{token}")).into_response())
-    }
-    .await)
+    page(
+        async {
+            let ApiForm(f) = form?;
+            let a = flow::by_token(&state.db, &token).await?;
+            let s = flow::study_of(&state.db, &a).await?;
+            let req = flow::AnswerRequest {
+                position: f.position,
+                choice: f.choice,
+                elapsed_ms: f.elapsed_ms.and_then(|v| v.parse().ok()),
+            };
+            flow::answer(&state.db, &s, &a, &req).await?;
+            Ok(Redirect::to(&format!("/a/{token}")).into_response())
+        }
+        .await,
+    )
 }
 
 async fn reasons_submit(
@@ -450,39 +472,44 @@ async fn reasons_submit(
     ApiPath(token): ApiPath<String>,
     form: std::result::Result<ApiForm<Vec<(String, String)>>, AppError>,
 ) -> Response {
-    page(async {
-        let ApiForm(pairs) = form?;
-        let a = flow::by_token(&state.db, &token).await?;
-        let mut position = None;
-        let mut reasons = Vec::new();
-        let mut text = None;
-        for (k, v) in pairs.into_iter().take(50) {
-            match k.as_str() {
-                "position" => {
-                    position = Some(
-                        v.parse::<i64>()
-                            .map_err(|_| AppError::BadRequest("position: not a number".into()))?,
-                    )
+    page(
+        async {
+            let ApiForm(pairs) = form?;
+            let a = flow::by_token(&state.db, &token).await?;
+            let mut position = None;
+            let mut reasons = Vec::new();
+            let mut text = None;
+            for (k, v) in pairs.into_iter().take(50) {
+                match k.as_str() {
+                    "position" => {
+                        position =
+                            Some(v.parse::<i64>().map_err(|_| {
+                                AppError::BadRequest("position: not a number".into())
+                            })?)
+                    }
+                    "reason" => reasons.push(v),
+                    "text" => text = Some(v),
+                    other => {
+                        return Err(AppError::BadRequest(format!("unexpected field {other:?}")));
+                    }
                 }
-                "reason" => reasons.push(v),
-                "text" => text = Some(v),
-                other => return Err(AppError::BadRequest(format!("unexpected field {other:?}"))),
             }
+            let position =
+                position.ok_or_else(|| AppError::BadRequest("position: missing".into()))?;
+            flow::submit_reasons(
+                &state.db,
+                &a,
+                &flow::ReasonsRequest {
+                    position,
+                    reasons,
+                    text,
+                },
+            )
+            .await?;
+            Ok(Redirect::to(&format!("/a/{token}")).into_response())
         }
-        let position = position.ok_or_else(|| AppError::BadRequest("position: missing".into()))?;
-        flow::submit_reasons(
-            &state.db,
-            &a,
-            &flow::ReasonsRequest {
-                position,
-                reasons,
-                text,
-            },
-        )
-        .await?;
-        Ok(Redirect::to(&format!("/a/{token}")).into_response())
-    }
-    .await)
+        .await,
+    )
 }
 
 #[derive(Template)]
@@ -505,28 +532,30 @@ async fn login_submit(
     State(state): State<AppState>,
     form: std::result::Result<ApiForm<LoginForm>, AppError>,
 ) -> Response {
-    page(async {
-        let ApiForm(f) = form?;
-        match admin::login(&state.db, &f.username, &f.password).await? {
-            Some((token, _csrf)) => Ok((
-                StatusCode::SEE_OTHER,
-                [
-                    (
-                        header::SET_COOKIE,
-                        admin::session_cookie(&token, state.settings.secure_cookies),
-                    ),
-                    (header::LOCATION, "/admin".to_string()),
-                ],
-            )
-                .into_response()),
-            None => {
-                let mut r = render(&LoginPage { failed: true })?;
-                *r.status_mut() = StatusCode::UNAUTHORIZED;
-                Ok(r)
+    page(
+        async {
+            let ApiForm(f) = form?;
+            match admin::login(&state.db, &f.username, &f.password).await? {
+                Some((token, _csrf)) => Ok((
+                    StatusCode::SEE_OTHER,
+                    [
+                        (
+                            header::SET_COOKIE,
+                            admin::session_cookie(&token, state.settings.secure_cookies),
+                        ),
+                        (header::LOCATION, "/admin".to_string()),
+                    ],
+                )
+                    .into_response()),
+                None => {
+                    let mut r = render(&LoginPage { failed: true })?;
+                    *r.status_mut() = StatusCode::UNAUTHORIZED;
+                    Ok(r)
+                }
             }
         }
-    }
-    .await)
+        .await,
+    )
 }
 
 #[derive(Debug, Deserialize)]
@@ -539,24 +568,29 @@ async fn logout_submit(
     admin: std::result::Result<Admin, AppError>,
     form: std::result::Result<ApiForm<CsrfForm>, AppError>,
 ) -> Response {
-    page(async {
-        let admin = admin?;
-        let ApiForm(f) = form?;
-        admin.check_csrf(f.csrf.as_deref())?;
-        admin::logout(&state.db, &admin.token).await?;
-        Ok((
-            StatusCode::SEE_OTHER,
-            [
-                (
-                    header::SET_COOKIE,
-                    format!("{}=; HttpOnly; SameSite=Strict; Path=/; Max-Age=0", admin::COOKIE),
-                ),
-                (header::LOCATION, "/admin/login".to_string()),
-            ],
-        )
-            .into_response())
-    }
-    .await)
+    page(
+        async {
+            let admin = admin?;
+            let ApiForm(f) = form?;
+            admin.check_csrf(f.csrf.as_deref())?;
+            admin::logout(&state.db, &admin.token).await?;
+            Ok((
+                StatusCode::SEE_OTHER,
+                [
+                    (
+                        header::SET_COOKIE,
+                        format!(
+                            "{}=; HttpOnly; SameSite=Strict; Path=/; Max-Age=0",
+                            admin::COOKIE
+                        ),
+                    ),
+                    (header::LOCATION, "/admin/login".to_string()),
+                ],
+            )
+                .into_response())
+        }
+        .await,
+    )
 }
 
 struct StudyRow {
@@ -580,37 +614,39 @@ async fn admin_index(
     State(state): State<AppState>,
     admin: std::result::Result<Admin, AppError>,
 ) -> Response {
-    page(async {
-        let admin = admin?;
-        let studies = study::list(&state.db)
-            .await?
-            .into_iter()
-            .map(|s| StudyRow {
-                id: s.id,
-                name: s.name,
-                questions: s.settings.questions_per_hit,
-                replication: s.settings.replication,
-                mode: match s.settings.mturk_mode {
-                    MturkMode::Sandbox => "sandbox",
-                    MturkMode::Live => "LIVE",
-                },
+    page(
+        async {
+            let admin = admin?;
+            let studies = study::list(&state.db)
+                .await?
+                .into_iter()
+                .map(|s| StudyRow {
+                    id: s.id,
+                    name: s.name,
+                    questions: s.settings.questions_per_hit,
+                    replication: s.settings.replication,
+                    mode: match s.settings.mturk_mode {
+                        MturkMode::Sandbox => "sandbox",
+                        MturkMode::Live => "LIVE",
+                    },
+                })
+                .collect();
+            let rows = sqlx::query("SELECT name FROM libraries ORDER BY name")
+                .fetch_all(&state.db.pool)
+                .await?;
+            let libraries = rows
+                .iter()
+                .map(|r| sqlx::Row::try_get(r, "name"))
+                .collect::<std::result::Result<_, _>>()?;
+            render(&AdminIndex {
+                username: admin.username,
+                csrf: admin.csrf,
+                studies,
+                libraries,
             })
-            .collect();
-        let rows = sqlx::query("SELECT name FROM libraries ORDER BY name")
-            .fetch_all(&state.db.pool)
-            .await?;
-        let libraries = rows
-            .iter()
-            .map(|r| sqlx::Row::try_get(r, "name"))
-            .collect::<std::result::Result<_, _>>()?;
-        render(&AdminIndex {
-            username: admin.username,
-            csrf: admin.csrf,
-            studies,
-            libraries,
-        })
-    }
-    .await)
+        }
+        .await,
+    )
 }
 
 #[derive(Debug, Deserialize)]
@@ -630,23 +666,25 @@ async fn admin_create(
     admin: std::result::Result<Admin, AppError>,
     form: std::result::Result<ApiForm<CreateForm>, AppError>,
 ) -> Response {
-    page(async {
-        let admin = admin?;
-        let ApiForm(f) = form?;
-        admin.check_csrf(f.csrf.as_deref())?;
-        let library = library::ensure_existing(&state.db, &f.library).await?;
-        let settings = StudySettings {
-            questions_per_hit: f.questions_per_hit,
-            controls_per_hit: f.controls_per_hit,
-            tuples: f.tuples,
-            replication: f.replication,
-            mturk_mode: f.mturk_mode,
-            ..StudySettings::default()
-        };
-        let (id, _) = study::create(&state.db, &f.name, library, settings).await?;
-        Ok(Redirect::to(&format!("/admin/studies/{id}")).into_response())
-    }
-    .await)
+    page(
+        async {
+            let admin = admin?;
+            let ApiForm(f) = form?;
+            admin.check_csrf(f.csrf.as_deref())?;
+            let library = library::ensure_existing(&state.db, &f.library).await?;
+            let settings = StudySettings {
+                questions_per_hit: f.questions_per_hit,
+                controls_per_hit: f.controls_per_hit,
+                tuples: f.tuples,
+                replication: f.replication,
+                mturk_mode: f.mturk_mode,
+                ..StudySettings::default()
+            };
+            let (id, _) = study::create(&state.db, &f.name, library, settings).await?;
+            Ok(Redirect::to(&format!("/admin/studies/{id}")).into_response())
+        }
+        .await,
+    )
 }
 
 /// The multipart upload handler (mounted by [`crate::app`] with a larger body limit).
@@ -655,94 +693,113 @@ pub async fn upload_handler(
     admin: std::result::Result<Admin, AppError>,
     multipart: std::result::Result<Multipart, axum::extract::multipart::MultipartRejection>,
 ) -> Response {
-    page(async {
-        let admin = admin?;
-        let mut multipart =
-            multipart.map_err(|e| AppError::BadRequest(format!("expected a multipart form: {e}")))?;
-        let mut csrf = None;
-        let mut library_name = None;
-        let mut stored = Vec::new();
-        let mut problems = Vec::new();
-        while let Some(field) = multipart
-            .next_field()
-            .await
-            .map_err(|e| AppError::BadRequest(format!("malformed upload: {e}")))?
-        {
-            let name = field.name().unwrap_or_default().to_string();
-            match name.as_str() {
-                "csrf" => csrf = Some(field.text().await.map_err(|e| AppError::BadRequest(e.to_string()))?),
-                "library" => {
-                    library_name =
-                        Some(field.text().await.map_err(|e| AppError::BadRequest(e.to_string()))?)
-                }
-                "file" => {
-                    // Fields arrive in form order: csrf and library precede the files.
-                    admin.check_csrf(csrf.as_deref())?;
-                    let filename = field
-                        .file_name()
-                        .map(|f| f.rsplit(['/', '\\']).next().unwrap_or(f).to_string())
-                        .filter(|f| !f.is_empty() && f.len() <= 200)
-                        .ok_or_else(|| AppError::BadRequest("file: missing or long name".into()))?;
-                    let bytes = field.bytes().await.map_err(|e| {
-                        AppError::TooLarge(format!("{filename}: upload failed or too large: {e}"))
-                    })?;
-                    let lib = library::ensure_library(
-                        &state.db,
-                        library_name.as_deref().unwrap_or("uploads"),
-                    )
-                    .await?;
-                    let fname = filename.clone();
-                    let image = tokio::task::spawn_blocking(move || {
-                        library::validate_upload(&fname, &bytes)
-                    })
-                    .await
-                    .map_err(AppError::internal)?;
-                    match image {
-                        Ok(image) => {
-                            let item = library::NewItem {
-                                name: filename.clone(),
-                                style: None,
-                                tags: Vec::new(),
-                                image,
-                            };
-                            match library::insert_item(&state.db, lib, item).await? {
-                                Some(_) => stored.push(filename),
-                                None => problems.push(AppError::Conflict(format!(
-                                    "{filename}: already in the library"
-                                ))),
+    page(
+        async {
+            let admin = admin?;
+            let mut multipart = multipart
+                .map_err(|e| AppError::BadRequest(format!("expected a multipart form: {e}")))?;
+            let mut csrf = None;
+            let mut library_name = None;
+            let mut stored = Vec::new();
+            let mut problems = Vec::new();
+            while let Some(field) = multipart
+                .next_field()
+                .await
+                .map_err(|e| AppError::BadRequest(format!("malformed upload: {e}")))?
+            {
+                let name = field.name().unwrap_or_default().to_string();
+                match name.as_str() {
+                    "csrf" => {
+                        csrf = Some(
+                            field
+                                .text()
+                                .await
+                                .map_err(|e| AppError::BadRequest(e.to_string()))?,
+                        )
+                    }
+                    "library" => {
+                        library_name = Some(
+                            field
+                                .text()
+                                .await
+                                .map_err(|e| AppError::BadRequest(e.to_string()))?,
+                        )
+                    }
+                    "file" => {
+                        // Fields arrive in form order: csrf and library precede the files.
+                        admin.check_csrf(csrf.as_deref())?;
+                        let filename = field
+                            .file_name()
+                            .map(|f| f.rsplit(['/', '\\']).next().unwrap_or(f).to_string())
+                            .filter(|f| !f.is_empty() && f.len() <= 200)
+                            .ok_or_else(|| {
+                                AppError::BadRequest("file: missing or long name".into())
+                            })?;
+                        let bytes = field.bytes().await.map_err(|e| {
+                            AppError::TooLarge(format!(
+                                "{filename}: upload failed or too large: {e}"
+                            ))
+                        })?;
+                        let lib = library::ensure_library(
+                            &state.db,
+                            library_name.as_deref().unwrap_or("uploads"),
+                        )
+                        .await?;
+                        let fname = filename.clone();
+                        let image = tokio::task::spawn_blocking(move || {
+                            library::validate_upload(&fname, &bytes)
+                        })
+                        .await
+                        .map_err(AppError::internal)?;
+                        match image {
+                            Ok(image) => {
+                                let item = library::NewItem {
+                                    name: filename.clone(),
+                                    style: None,
+                                    tags: Vec::new(),
+                                    image,
+                                };
+                                match library::insert_item(&state.db, lib, item).await? {
+                                    Some(_) => stored.push(filename),
+                                    None => problems.push(AppError::Conflict(format!(
+                                        "{filename}: already in the library"
+                                    ))),
+                                }
                             }
+                            Err(e) => problems.push(e),
                         }
-                        Err(e) => problems.push(e),
+                    }
+                    other => {
+                        return Err(AppError::BadRequest(format!("unexpected field {other:?}")));
                     }
                 }
-                other => return Err(AppError::BadRequest(format!("unexpected field {other:?}"))),
             }
+            admin.check_csrf(csrf.as_deref())?;
+            let messages: Vec<String> = problems.iter().map(AppError::public_message).collect();
+            if stored.is_empty() {
+                return Err(match problems.len() {
+                    0 => AppError::BadRequest("no file uploaded".into()),
+                    1 => problems.remove(0),
+                    _ => AppError::BadRequest(messages.join("; ")),
+                });
+            }
+            render(&MessagePage {
+                title: "Upload",
+                message: format!(
+                    "Stored {} item(s): {}.{}",
+                    stored.len(),
+                    stored.join(", "),
+                    if messages.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" Refused: {}", messages.join("; "))
+                    }
+                ),
+                class: "ok",
+            })
         }
-        admin.check_csrf(csrf.as_deref())?;
-        let messages: Vec<String> = problems.iter().map(AppError::public_message).collect();
-        if stored.is_empty() {
-            return Err(match problems.len() {
-                0 => AppError::BadRequest("no file uploaded".into()),
-                1 => problems.remove(0),
-                _ => AppError::BadRequest(messages.join("; ")),
-            });
-        }
-        render(&MessagePage {
-            title: "Upload",
-            message: format!(
-                "Stored {} item(s): {}.{}",
-                stored.len(),
-                stored.join(", "),
-                if messages.is_empty() {
-                    String::new()
-                } else {
-                    format!(" Refused: {}", messages.join("; "))
-                }
-            ),
-            class: "ok",
-        })
-    }
-    .await)
+        .await,
+    )
 }
 
 #[derive(Template)]
@@ -779,7 +836,13 @@ async fn study_page(
 ) -> Result<Response> {
     let s = study::load(&state.db, id).await?;
     let (d, workers) = dashboard::compute(&state.db, &s).await?;
-    let max = d.control_error_histogram.iter().map(|x| x.1).max().unwrap_or(1).max(1);
+    let max = d
+        .control_error_histogram
+        .iter()
+        .map(|x| x.1)
+        .max()
+        .unwrap_or(1)
+        .max(1);
     let histogram = d
         .control_error_histogram
         .iter()
@@ -830,26 +893,28 @@ async fn admin_qc(
     ApiPath(id): ApiPath<StudyId>,
     form: std::result::Result<ApiForm<QcForm>, AppError>,
 ) -> Response {
-    page(async {
-        let admin = admin?;
-        let ApiForm(f) = form?;
-        admin.check_csrf(f.csrf.as_deref())?;
-        let apply = match f.mode.as_str() {
-            "apply" => true,
-            "dry_run" => false,
-            _ => return Err(AppError::BadRequest("mode: dry_run or apply".into())),
-        };
-        let result = qc::evaluate(
-            &state.db,
-            id,
-            f.threshold,
-            apply,
-            &format!("admin:{}", admin.username),
-        )
-        .await?;
-        study_page(&state, &admin, id, result).await
-    }
-    .await)
+    page(
+        async {
+            let admin = admin?;
+            let ApiForm(f) = form?;
+            admin.check_csrf(f.csrf.as_deref())?;
+            let apply = match f.mode.as_str() {
+                "apply" => true,
+                "dry_run" => false,
+                _ => return Err(AppError::BadRequest("mode: dry_run or apply".into())),
+            };
+            let result = qc::evaluate(
+                &state.db,
+                id,
+                f.threshold,
+                apply,
+                &format!("admin:{}", admin.username),
+            )
+            .await?;
+            study_page(&state, &admin, id, result).await
+        }
+        .await,
+    )
 }
 
 #[derive(Debug, Deserialize)]
@@ -865,14 +930,17 @@ async fn admin_decision(
     ApiPath(id): ApiPath<StudyId>,
     form: std::result::Result<ApiForm<DecisionForm>, AppError>,
 ) -> Response {
-    page(async {
-        let admin = admin?;
-        let ApiForm(f) = form?;
-        admin.check_csrf(f.csrf.as_deref())?;
-        qc::override_decision(&state.db, id, f.assignment, &f.decision, &admin.username).await?;
-        Ok(Redirect::to(&format!("/admin/studies/{id}")).into_response())
-    }
-    .await)
+    page(
+        async {
+            let admin = admin?;
+            let ApiForm(f) = form?;
+            admin.check_csrf(f.csrf.as_deref())?;
+            qc::override_decision(&state.db, id, f.assignment, &f.decision, &admin.username)
+                .await?;
+            Ok(Redirect::to(&format!("/admin/studies/{id}")).into_response())
+        }
+        .await,
+    )
 }
 
 async fn admin_export(
@@ -881,9 +949,13 @@ async fn admin_export(
     ApiPath((id, file)): ApiPath<(StudyId, String)>,
     ApiQuery(opts): ApiQuery<ExportOptions>,
 ) -> Response {
-    page(async {
-        admin?;
-        Ok(crate::api::export_file(&state, id, &file, opts).await?.into_response())
-    }
-    .await)
+    page(
+        async {
+            admin?;
+            Ok(crate::api::export_file(&state, id, &file, opts)
+                .await?
+                .into_response())
+        }
+        .await,
+    )
 }

@@ -131,7 +131,15 @@ pub async fn evaluate(
         let rule = rule_name(threshold);
         for o in out.iter().filter(|o| o.changes) {
             let mut tx = db.begin_write().await?;
-            record(&mut tx, o.assignment, &o.verdict, &rule, actor, o.control_errors).await?;
+            record(
+                &mut tx,
+                o.assignment,
+                &o.verdict,
+                &rule,
+                actor,
+                o.control_errors,
+            )
+            .await?;
             tx.commit().await?;
         }
     }

@@ -282,10 +282,7 @@ pub fn style_triplets(
         return Vec::new();
     }
     let centroid = |g: &[ItemId]| -> Vec<f64> {
-        let dim = g
-            .iter()
-            .find_map(|i| features.get(i))
-            .map_or(0, Vec::len);
+        let dim = g.iter().find_map(|i| features.get(i)).map_or(0, Vec::len);
         let mut sum = vec![0.0; dim];
         for f in g.iter().filter_map(|i| features.get(i)) {
             for (s, v) in sum.iter_mut().zip(f) {
@@ -322,11 +319,15 @@ pub fn style_triplets(
     let mut attempts = 0;
     while out.len() < count && attempts < count * 50 {
         attempts += 1;
-        let Some(&g) = eligible.choose(rng) else { break };
+        let Some(&g) = eligible.choose(rng) else {
+            break;
+        };
         let members = &groups[names[g]];
         let pair: Vec<ItemId> = members.choose_multiple(rng, 2).copied().collect();
         let Some(&o) = far[g].choose(rng) else { break };
-        let Some(&c) = groups[names[o]].choose(rng) else { continue };
+        let Some(&c) = groups[names[o]].choose(rng) else {
+            continue;
+        };
         let t = NewTuple {
             a: pair[0],
             b: pair[1],
@@ -363,8 +364,12 @@ pub async fn create(
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(settings.seed);
     let main = random_triplets(&ids, settings.tuples as usize, &mut rng);
     let control_count = (settings.controls_per_hit as usize * 20).max(50);
-    let mut labelled =
-        style_triplets(&items, &features, control_count + settings.training_questions as usize, &mut rng);
+    let mut labelled = style_triplets(
+        &items,
+        &features,
+        control_count + settings.training_questions as usize,
+        &mut rng,
+    );
     labelled.shuffle(&mut rng);
     let training: Vec<NewTuple> = labelled
         .iter()
@@ -392,7 +397,11 @@ pub async fn create(
     .execute(&mut *tx)
     .await?;
     let mut summary = PoolSummary::default();
-    for (kind, tuples) in [("main", &main), ("control", &controls), ("training", &training)] {
+    for (kind, tuples) in [
+        ("main", &main),
+        ("control", &controls),
+        ("training", &training),
+    ] {
         for (seq, t) in tuples.iter().enumerate() {
             let tuple = TupleId::generate();
             let expected = (kind != "main").then_some("b");
@@ -436,12 +445,7 @@ pub async fn create(
 }
 
 /// Adds a curated control (or training) triplet given by item names; `b` is the expected answer.
-pub async fn add_curated(
-    db: &Db,
-    study: &Study,
-    kind: &str,
-    names: [&str; 3],
-) -> Result<TupleId> {
+pub async fn add_curated(db: &Db, study: &Study, kind: &str, names: [&str; 3]) -> Result<TupleId> {
     if kind != "control" && kind != "training" {
         return Err(AppError::BadRequest(
             "kind must be 'control' or 'training'".into(),
@@ -454,7 +458,9 @@ pub async fn add_curated(
             .bind(name)
             .fetch_optional(&db.pool)
             .await?
-            .ok_or_else(|| AppError::BadRequest(format!("no item named {name:?} in the library")))?;
+            .ok_or_else(|| {
+                AppError::BadRequest(format!("no item named {name:?} in the library"))
+            })?;
         ids.push(row.try_get::<i64, _>("id")?);
     }
     if ids[0] == ids[1] || ids[0] == ids[2] || ids[1] == ids[2] {

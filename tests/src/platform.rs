@@ -163,7 +163,14 @@ pub fn setup_study(db: &TestDb, opts: &StudyOpts) -> i64 {
     let labels = lib.path().join("labels.csv").to_string_lossy().into_owned();
     platform_ok(
         &[
-            "library", "import", "--database-url", &db.url, "--name", "fx", "--labels", &labels,
+            "library",
+            "import",
+            "--database-url",
+            &db.url,
+            "--name",
+            "fx",
+            "--labels",
+            &labels,
             &lib_path,
         ],
         &[],
@@ -384,7 +391,9 @@ pub async fn pass_training(
             break;
         }
     }
-    send(c.get(format!("{base}/api/v1/assignments/{token}"))).await.1
+    send(c.get(format!("{base}/api/v1/assignments/{token}")))
+        .await
+        .1
 }
 
 /// Answers every remaining question; returns the final state.

@@ -138,31 +138,72 @@ async fn worker_and_admin_flows_in_chromium() {
         .await
         .expect("choose");
     mark(&c).await;
-    c.find(Locator::Id("start")).await.expect("start").click().await.expect("click");
+    c.find(Locator::Id("start"))
+        .await
+        .expect("start")
+        .click()
+        .await
+        .expect("click");
     wait_navigated(&c).await;
 
     // Training: a wrong attempt shows feedback, then the right answers pass the gate.
     for attempt in 0..2 {
-        c.wait().for_element(Locator::Id("training-form")).await.expect("training page");
-        let questions = c.find_all(Locator::Css(".training-q")).await.expect("questions");
+        c.wait()
+            .for_element(Locator::Id("training-form"))
+            .await
+            .expect("training page");
+        let questions = c
+            .find_all(Locator::Css(".training-q"))
+            .await
+            .expect("questions");
         for q in &questions {
             let imgs = q.find_all(Locator::Css("img")).await.expect("imgs");
-            let reference = id_from_src(&imgs[0].attr("src").await.expect("src").unwrap_or_default());
-            let radios = q.find_all(Locator::Css("input[type=radio]")).await.expect("radios");
-            let l: i64 = radios[0].attr("value").await.expect("v").unwrap_or_default().parse().expect("id");
-            let r: i64 = radios[1].attr("value").await.expect("v").unwrap_or_default().parse().expect("id");
+            let reference =
+                id_from_src(&imgs[0].attr("src").await.expect("src").unwrap_or_default());
+            let radios = q
+                .find_all(Locator::Css("input[type=radio]"))
+                .await
+                .expect("radios");
+            let l: i64 = radios[0]
+                .attr("value")
+                .await
+                .expect("v")
+                .unwrap_or_default()
+                .parse()
+                .expect("id");
+            let r: i64 = radios[1]
+                .attr("value")
+                .await
+                .expect("v")
+                .unwrap_or_default()
+                .parse()
+                .expect("id");
             let right = honest(reference, l, r, &styles);
-            let pick = if attempt == 0 { if right == l { 1 } else { 0 } } else if right == l { 0 } else { 1 };
+            let pick = if attempt == 0 {
+                if right == l { 1 } else { 0 }
+            } else if right == l {
+                0
+            } else {
+                1
+            };
             radios[pick].click().await.expect("radio");
         }
         if attempt == 0 {
             shot(&c, &artifacts, "02-training.png").await;
         }
         mark(&c).await;
-        c.find(Locator::Id("submit-training")).await.expect("submit").click().await.expect("click");
+        c.find(Locator::Id("submit-training"))
+            .await
+            .expect("submit")
+            .click()
+            .await
+            .expect("click");
         wait_navigated(&c).await;
         if attempt == 0 {
-            c.wait().for_element(Locator::Id("training-feedback")).await.expect("feedback");
+            c.wait()
+                .for_element(Locator::Id("training-feedback"))
+                .await
+                .expect("feedback");
             shot(&c, &artifacts, "03-training-feedback.png").await;
         }
     }
@@ -171,7 +212,10 @@ async fn worker_and_admin_flows_in_chromium() {
     let mut n = 0;
     let mut saw_reasons = false;
     loop {
-        c.wait().for_element(Locator::Css("h1, #progress")).await.expect("page");
+        c.wait()
+            .for_element(Locator::Css("h1, #progress"))
+            .await
+            .expect("page");
         if c.find(Locator::Id("answer-form")).await.is_ok() {
             let reference = id_from_src(&attr(&c, ".reference img", "src").await);
             let l: i64 = attr(&c, "#left", "value").await.parse().expect("left id");
@@ -183,10 +227,20 @@ async fn worker_and_admin_flows_in_chromium() {
             mark(&c).await;
             if n % 2 == 0 {
                 let id = if pick == l { "left" } else { "right" };
-                c.find(Locator::Id(id)).await.expect("option").click().await.expect("click");
+                c.find(Locator::Id(id))
+                    .await
+                    .expect("option")
+                    .click()
+                    .await
+                    .expect("click");
             } else {
                 let key = if pick == l { "1" } else { "2" };
-                c.find(Locator::Css("body")).await.expect("body").send_keys(key).await.expect("key");
+                c.find(Locator::Css("body"))
+                    .await
+                    .expect("body")
+                    .send_keys(key)
+                    .await
+                    .expect("key");
             }
             n += 1;
             wait_navigated(&c).await;
@@ -195,10 +249,25 @@ async fn worker_and_admin_flows_in_chromium() {
                 shot(&c, &artifacts, "05-reasons.png").await;
             }
             saw_reasons = true;
-            c.find(Locator::Css("input[value=shading_flat]")).await.expect("box").click().await.expect("click");
-            c.find(Locator::Css("input[name=text]")).await.expect("text").send_keys("flat colours").await.expect("type");
+            c.find(Locator::Css("input[value=shading_flat]"))
+                .await
+                .expect("box")
+                .click()
+                .await
+                .expect("click");
+            c.find(Locator::Css("input[name=text]"))
+                .await
+                .expect("text")
+                .send_keys("flat colours")
+                .await
+                .expect("type");
             mark(&c).await;
-            c.find(Locator::Id("send-reasons")).await.expect("send").click().await.expect("click");
+            c.find(Locator::Id("send-reasons"))
+                .await
+                .expect("send")
+                .click()
+                .await
+                .expect("click");
             wait_navigated(&c).await;
         } else if c.find(Locator::Id("code")).await.is_ok() {
             break;
@@ -208,27 +277,84 @@ async fn worker_and_admin_flows_in_chromium() {
         assert!(n <= 6, "more questions than the HIT has");
     }
     assert_eq!(n, 6);
-    let code = c.find(Locator::Id("code")).await.expect("code").text().await.expect("text");
+    let code = c
+        .find(Locator::Id("code"))
+        .await
+        .expect("code")
+        .text()
+        .await
+        .expect("text");
     assert_eq!(code.len(), 12, "completion code {code:?}");
     shot(&c, &artifacts, "06-done.png").await;
     // Reload: still done, same code (resume).
     c.refresh().await.expect("reload");
-    let again = c.find(Locator::Id("code")).await.expect("code").text().await.expect("text");
+    let again = c
+        .find(Locator::Id("code"))
+        .await
+        .expect("code")
+        .text()
+        .await
+        .expect("text");
     assert_eq!(again, code);
 
     // Admin: login, study list, dashboard with this worker.
-    c.goto(&server.url("/admin/login")).await.expect("login page");
-    c.find(Locator::Id("username")).await.expect("user").send_keys("admin").await.expect("type");
-    c.find(Locator::Id("password")).await.expect("pass").send_keys(ADMIN_PASSWORD).await.expect("type");
-    c.find(Locator::Id("login")).await.expect("login").click().await.expect("click");
-    c.wait().for_element(Locator::Id("studies")).await.expect("studies");
+    c.goto(&server.url("/admin/login"))
+        .await
+        .expect("login page");
+    c.find(Locator::Id("username"))
+        .await
+        .expect("user")
+        .send_keys("admin")
+        .await
+        .expect("type");
+    c.find(Locator::Id("password"))
+        .await
+        .expect("pass")
+        .send_keys(ADMIN_PASSWORD)
+        .await
+        .expect("type");
+    c.find(Locator::Id("login"))
+        .await
+        .expect("login")
+        .click()
+        .await
+        .expect("click");
+    c.wait()
+        .for_element(Locator::Id("studies"))
+        .await
+        .expect("studies");
     shot(&c, &artifacts, "07-admin-studies.png").await;
-    c.find(Locator::Css("#studies a")).await.expect("study link").click().await.expect("click");
-    c.wait().for_element(Locator::Id("workers")).await.expect("dashboard");
-    let table = c.find(Locator::Id("workers")).await.expect("workers").text().await.expect("text");
-    assert!(table.contains("completed") && table.contains("approved"), "{table}");
-    c.find(Locator::Id("qc-dry")).await.expect("dry run").click().await.expect("click");
-    c.wait().for_element(Locator::Id("qc-result")).await.expect("qc result");
+    c.find(Locator::Css("#studies a"))
+        .await
+        .expect("study link")
+        .click()
+        .await
+        .expect("click");
+    c.wait()
+        .for_element(Locator::Id("workers"))
+        .await
+        .expect("dashboard");
+    let table = c
+        .find(Locator::Id("workers"))
+        .await
+        .expect("workers")
+        .text()
+        .await
+        .expect("text");
+    assert!(
+        table.contains("completed") && table.contains("approved"),
+        "{table}"
+    );
+    c.find(Locator::Id("qc-dry"))
+        .await
+        .expect("dry run")
+        .click()
+        .await
+        .expect("click");
+    c.wait()
+        .for_element(Locator::Id("qc-result"))
+        .await
+        .expect("qc result");
     shot(&c, &artifacts, "08-admin-dashboard.png").await;
     let _ = saw_reasons;
     c.close().await.expect("close");

@@ -8,6 +8,9 @@ use std::sync::{Arc, Mutex};
 use e2e::platform::*;
 use serde_json::{Value, json};
 
+/// Acknowledged answers: ((token, position), chosen item id).
+type Acked = Arc<Mutex<Vec<((String, i64), i64)>>>;
+
 /// (token, position) → chosen item id, for every answer stored in the database.
 async fn stored_answers(db_url: &str) -> HashMap<(String, i64), i64> {
     sqlx::any::install_default_drivers();
@@ -31,7 +34,7 @@ async fn worker_until_error(
     study: i64,
     name: String,
     styles: Arc<HashMap<i64, String>>,
-    acked: Arc<Mutex<Vec<((String, i64), i64)>>>,
+    acked: Acked,
     count: Arc<AtomicUsize>,
 ) -> Option<String> {
     let c = client();
@@ -49,7 +52,9 @@ async fn worker_until_error(
     let answers: Vec<Value> = st["training"]
         .as_array()?
         .iter()
-        .map(|q| json!({"position": q["position"], "choice": choose(q, &styles, Behaviour::Honest)}))
+        .map(
+            |q| json!({"position": q["position"], "choice": choose(q, &styles, Behaviour::Honest)}),
+        )
         .collect();
     i += 1;
     let (status, _) = send_opt(
@@ -62,7 +67,8 @@ async fn worker_until_error(
     }
     loop {
         i += 1;
-        let (status, st) = send_opt(c.get(format!("{}/api/v1/assignments/{token}", pick(i)))).await?;
+        let (status, st) =
+            send_opt(c.get(format!("{}/api/v1/assignments/{token}", pick(i)))).await?;
         if status != 200 {
             return Some(token);
         }
@@ -81,7 +87,10 @@ async fn worker_until_error(
             return Some(token);
         }
         if ack["duplicate"] == false {
-            acked.lock().expect("lock").push(((token.clone(), position), choice));
+            acked
+                .lock()
+                .expect("lock")
+                .push(((token.clone(), position), choice));
             count.fetch_add(1, Ordering::SeqCst);
         }
     }
@@ -92,12 +101,17 @@ async fn send_opt(req: reqwest::RequestBuilder) -> Option<(u16, Value)> {
     let resp = req.send().await.ok()?;
     let status = resp.status().as_u16();
     let text = resp.text().await.ok()?;
-    Some((status, serde_json::from_str(&text).unwrap_or(Value::String(text))))
+    Some((
+        status,
+        serde_json::from_str(&text).unwrap_or(Value::String(text)),
+    ))
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn two_servers_share_one_postgres() {
-    let Some(db) = postgres_db().await else { return };
+    let Some(db) = postgres_db().await else {
+        return;
+    };
     let study = setup_study(
         &db,
         &StudyOpts {
@@ -130,7 +144,11 @@ async fn two_servers_share_one_postgres() {
     let stored = stored_answers(&db.url).await;
     assert_eq!(stored.len(), acked.len(), "no answer lost or duplicated");
     let keys: HashSet<&(String, i64)> = acked.iter().map(|(k, _)| k).collect();
-    assert_eq!(keys.len(), acked.len(), "each position acknowledged once as new");
+    assert_eq!(
+        keys.len(),
+        acked.len(),
+        "each position acknowledged once as new"
+    );
     for (k, choice) in &acked {
         assert_eq!(stored.get(k), Some(choice), "{k:?}");
     }
@@ -140,10 +158,21 @@ async fn two_servers_share_one_postgres() {
     )
     .await;
     assert_eq!(over, 0, "no replicated tuple over-filled");
-    let claimed = scalar(&db.url, "SELECT CAST(COUNT(*) AS BIGINT) FROM slots WHERE assignment_id IS NOT NULL").await;
-    let in_questions = scalar(&db.url, "SELECT CAST(COUNT(DISTINCT slot_id) AS BIGINT) FROM questions").await;
+    let claimed = scalar(
+        &db.url,
+        "SELECT CAST(COUNT(*) AS BIGINT) FROM slots WHERE assignment_id IS NOT NULL",
+    )
+    .await;
+    let in_questions = scalar(
+        &db.url,
+        "SELECT CAST(COUNT(DISTINCT slot_id) AS BIGINT) FROM questions",
+    )
+    .await;
     assert_eq!(claimed, in_questions);
-    assert!(claimed >= 80, "14 workers x 8 main questions > 90 slots; claimed {claimed}");
+    assert!(
+        claimed >= 80,
+        "14 workers x 8 main questions > 90 slots; claimed {claimed}"
+    );
 }
 
 async fn crash(db: TestDb) {
@@ -187,7 +216,11 @@ async fn crash(db: TestDb) {
     assert!(acked.len() >= 60);
     let stored = stored_answers(&db.url).await;
     for (k, choice) in &acked {
-        assert_eq!(stored.get(k), Some(choice), "acknowledged answer {k:?} lost in the crash");
+        assert_eq!(
+            stored.get(k),
+            Some(choice),
+            "acknowledged answer {k:?} lost in the crash"
+        );
     }
     // Restart: every worker resumes at its next unanswered question and finishes.
     let restarted = Server::start(&db.url);

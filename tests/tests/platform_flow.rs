@@ -82,7 +82,11 @@ async fn worker_flow(db: TestDb) {
         .iter()
         .map(|q| {
             let right = choose(q, &styles, Behaviour::Honest);
-            let other = if q["left"]["id"] == right { &q["right"]["id"] } else { &q["left"]["id"] };
+            let other = if q["left"]["id"] == right {
+                &q["right"]["id"]
+            } else {
+                &q["left"]["id"]
+            };
             json!({"position": q["position"], "choice": other})
         })
         .collect();
@@ -94,7 +98,13 @@ async fn worker_flow(db: TestDb) {
     assert_eq!(status, 200, "{result}");
     assert_eq!(result["passed"], false);
     assert_eq!(result["attempts"], 1);
-    assert!(result["feedback"].as_array().expect("feedback").iter().all(|f| f["correct"] == false));
+    assert!(
+        result["feedback"]
+            .as_array()
+            .expect("feedback")
+            .iter()
+            .all(|f| f["correct"] == false)
+    );
     let st = pass_training(&c, base, &token, &styles, Behaviour::Honest).await;
     assert_eq!(st["status"], "active", "{st}");
     assert_eq!(st["total"], 12);
@@ -133,7 +143,11 @@ async fn worker_flow(db: TestDb) {
     )
     .await;
     assert_eq!((status, ack["duplicate"].clone()), (200, json!(true)));
-    let other = if q["left"]["id"] == *choice { &q["right"]["id"] } else { &q["left"]["id"] };
+    let other = if q["left"]["id"] == *choice {
+        &q["right"]["id"]
+    } else {
+        &q["left"]["id"]
+    };
     let (status, _) = send(
         c.post(format!("{base}/api/v1/assignments/{token}/answers"))
             .json(&json!({"position": q["position"], "choice": other})),
@@ -155,10 +169,26 @@ async fn worker_flow(db: TestDb) {
     assert_eq!(code.len(), 12);
     assert_eq!(done["handback"]["kind"], "code");
 
+    // The requester can check a submitted code; a made-up one is not valid.
+    let (cookie, csrf) = admin_login(&c, base).await;
+    for (given, valid) in [(code, true), ("ABCDEF123456", false)] {
+        let (status, check) = send(
+            c.get(format!("{base}/api/v1/admin/studies/{study}/codes/{given}"))
+                .header("cookie", &cookie),
+        )
+        .await;
+        assert_eq!(
+            (status, check["valid"].clone()),
+            (200, json!(valid)),
+            "{check}"
+        );
+    }
+
     // Exports through the admin API and the CLI.
-    let (cookie, _) = admin_login(&c, base).await;
     let resp = c
-        .get(format!("{base}/api/v1/admin/studies/{study}/export/triplets.csv"))
+        .get(format!(
+            "{base}/api/v1/admin/studies/{study}/export/triplets.csv"
+        ))
         .header("cookie", &cookie)
         .send()
         .await
@@ -172,14 +202,41 @@ async fn worker_flow(db: TestDb) {
     for row in &rows {
         let cols: Vec<&str> = row.split(',').collect();
         assert_eq!(cols.len(), 6);
-        assert!(cols[0].ends_with(".svg") && cols[1].ends_with(".svg") && cols[2].ends_with(".svg"));
+        assert!(
+            cols[0].ends_with(".svg") && cols[1].ends_with(".svg") && cols[2].ends_with(".svg")
+        );
         assert!(cols[3] == "0" || cols[3] == "1");
         assert!(cols[4].starts_with('W') && !cols[4].contains("worker-1"));
     }
+    // Curated controls by item name (unknown names are a clear 400).
+    let first: Vec<&str> = rows[0].split(',').collect();
+    let (status, body) = send(
+        c.post(format!("{base}/api/v1/admin/studies/{study}/curated"))
+            .header("cookie", &cookie)
+            .header("x-csrf-token", &csrf)
+            .json(&json!({"kind": "control", "a": first[0], "b": first[1], "c": first[2]})),
+    )
+    .await;
+    assert_eq!(status, 200, "{body}");
+    let (status, body) = send(
+        c.post(format!("{base}/api/v1/admin/studies/{study}/curated"))
+            .header("cookie", &cookie)
+            .header("x-csrf-token", &csrf)
+            .json(&json!({"kind": "control", "a": "nope.svg", "b": first[1], "c": first[2]})),
+    )
+    .await;
+    assert_eq!(status, 400, "{body}");
     let dir = tempfile::tempdir().expect("tmp");
     let out = dir.path().to_string_lossy().into_owned();
     platform_ok(
-        &["export", &study.to_string(), "--database-url", &db.url, "--out", &out],
+        &[
+            "export",
+            &study.to_string(),
+            "--database-url",
+            &db.url,
+            "--out",
+            &out,
+        ],
         &[],
     );
     let cli_csv = std::fs::read_to_string(dir.path().join("triplets.csv")).expect("triplets.csv");
@@ -190,10 +247,25 @@ async fn worker_flow(db: TestDb) {
     .expect("manifest json");
     assert_eq!(manifest["items"].as_array().map(Vec::len), Some(24));
     assert!(manifest["columns"]["triplets.csv"]["q"].is_string());
-    for f in ["reasons.csv", "workers.csv", "assignments.csv", "mturk_decisions.csv", "external_question.xml"] {
+    for f in [
+        "reasons.csv",
+        "workers.csv",
+        "assignments.csv",
+        "mturk_decisions.csv",
+        "external_question.xml",
+    ] {
         assert!(dir.path().join(f).exists(), "{f} missing");
     }
-    let status = platform_ok(&["study", "status", &study.to_string(), "--database-url", &db.url], &[]);
+    let status = platform_ok(
+        &[
+            "study",
+            "status",
+            &study.to_string(),
+            "--database-url",
+            &db.url,
+        ],
+        &[],
+    );
     let status: Value = serde_json::from_str(&status).expect("status json");
     assert_eq!(status["completed"], 1);
     assert_eq!(status["approved"], 1);
@@ -216,7 +288,11 @@ async fn quality_control(db: TestDb) {
         let (base, styles) = (base.clone(), styles.clone());
         tasks.push(tokio::spawn(async move {
             let c = client();
-            let who = if i % 3 == 2 { Behaviour::Spammer } else { Behaviour::Honest };
+            let who = if i % 3 == 2 {
+                Behaviour::Spammer
+            } else {
+                Behaviour::Honest
+            };
             let token = start_worker(&c, &base, study, &format!("qc-{i}")).await;
             // Spammers that got through the training (they retry with the feedback).
             pass_training(&c, &base, &token, &styles, Behaviour::Honest).await;
@@ -239,9 +315,19 @@ async fn quality_control(db: TestDb) {
     assert_eq!(status, 200);
     let workers = workers.as_array().expect("workers").clone();
     assert_eq!(workers.len(), 9);
-    let honest = workers.iter().filter(|w| w["decision"] == "approved").count();
-    let rejected: Vec<&Value> = workers.iter().filter(|w| w["decision"] == "rejected").collect();
-    assert_eq!((honest, rejected.len()), (6, 3), "spammers rejected, honest kept: {workers:?}");
+    let honest = workers
+        .iter()
+        .filter(|w| w["decision"] == "approved")
+        .count();
+    let rejected: Vec<&Value> = workers
+        .iter()
+        .filter(|w| w["decision"] == "rejected")
+        .collect();
+    assert_eq!(
+        (honest, rejected.len()),
+        (6, 3),
+        "spammers rejected, honest kept: {workers:?}"
+    );
     for w in &rejected {
         assert!(w["control_errors"].as_i64().expect("errors") >= 2);
     }
@@ -256,7 +342,11 @@ async fn quality_control(db: TestDb) {
     .await;
     assert_eq!(status, 200, "{dry}");
     assert_eq!(
-        dry.as_array().expect("outcomes").iter().filter(|o| o["changes"] == true).count(),
+        dry.as_array()
+            .expect("outcomes")
+            .iter()
+            .filter(|o| o["changes"] == true)
+            .count(),
         3
     );
     let (_, dash) = send(
@@ -295,12 +385,23 @@ async fn quality_control(db: TestDb) {
     .await;
     let audit = audit.as_array().expect("audit").clone();
     assert_eq!(audit.len(), 10, "9 rule decisions + 1 override: {audit:?}");
-    assert!(audit.iter().any(|d| d["actor"] == "admin:admin" && d["rule"] == "override"));
-    assert!(audit.iter().filter(|d| d["actor"] == "rule").all(|d| d["rule"] == "control_errors>=2"));
+    assert!(
+        audit
+            .iter()
+            .any(|d| d["actor"] == "admin:admin" && d["rule"] == "override")
+    );
+    assert!(
+        audit
+            .iter()
+            .filter(|d| d["actor"] == "rule")
+            .all(|d| d["rule"] == "control_errors>=2")
+    );
 
     // Rejected HITs are excluded from triplets.csv (12 main questions per HIT).
     let csv = c
-        .get(format!("{base}/api/v1/admin/studies/{study}/export/triplets.csv"))
+        .get(format!(
+            "{base}/api/v1/admin/studies/{study}/export/triplets.csv"
+        ))
         .header("cookie", &cookie)
         .send()
         .await
@@ -322,7 +423,11 @@ async fn quality_control(db: TestDb) {
         .expect("csv");
     assert_eq!(with_rejected.lines().count() - 1, 9 * 24);
 }
-both_databases!(quality_control, quality_control_sqlite, quality_control_postgres);
+both_databases!(
+    quality_control,
+    quality_control_sqlite,
+    quality_control_postgres
+);
 
 async fn replication(db: TestDb) {
     let opts = StudyOpts {
@@ -353,14 +458,26 @@ async fn replication(db: TestDb) {
     }
     // Demand (10 x 8) exceeds supply (15 x 3): every slot is claimed at most once, by distinct
     // workers per tuple, and nearly all are filled.
-    let claimed = scalar(&db.url, "SELECT CAST(COUNT(*) AS BIGINT) FROM slots WHERE assignment_id IS NOT NULL").await;
+    let claimed = scalar(
+        &db.url,
+        "SELECT CAST(COUNT(*) AS BIGINT) FROM slots WHERE assignment_id IS NOT NULL",
+    )
+    .await;
     let distinct_pairs = scalar(
         &db.url,
         "SELECT CAST(COUNT(*) AS BIGINT) FROM (SELECT DISTINCT tuple_id, worker_id FROM slots WHERE worker_id IS NOT NULL) x",
     )
     .await;
-    let questions = scalar(&db.url, "SELECT CAST(COUNT(*) AS BIGINT) FROM questions WHERE slot_id IS NOT NULL").await;
-    let distinct_slots = scalar(&db.url, "SELECT CAST(COUNT(DISTINCT slot_id) AS BIGINT) FROM questions").await;
+    let questions = scalar(
+        &db.url,
+        "SELECT CAST(COUNT(*) AS BIGINT) FROM questions WHERE slot_id IS NOT NULL",
+    )
+    .await;
+    let distinct_slots = scalar(
+        &db.url,
+        "SELECT CAST(COUNT(DISTINCT slot_id) AS BIGINT) FROM questions",
+    )
+    .await;
     let over = scalar(
         &db.url,
         "SELECT CAST(COUNT(*) AS BIGINT) FROM (SELECT tuple_id FROM slots WHERE assignment_id IS NOT NULL GROUP BY tuple_id HAVING COUNT(*) > 3) x",
@@ -370,8 +487,12 @@ async fn replication(db: TestDb) {
     assert_eq!(claimed, distinct_pairs, "a worker holds one slot per tuple");
     assert_eq!(questions, claimed);
     assert_eq!(distinct_slots, claimed, "a slot is in one question only");
-    assert!(claimed >= 40 && claimed <= 45, "claimed {claimed} of 45");
-    let answers = scalar(&db.url, "SELECT CAST(COUNT(*) AS BIGINT) FROM questions WHERE choice IS NOT NULL").await;
+    assert!((40..=45).contains(&claimed), "claimed {claimed} of 45");
+    let answers = scalar(
+        &db.url,
+        "SELECT CAST(COUNT(*) AS BIGINT) FROM questions WHERE choice IS NOT NULL",
+    )
+    .await;
     assert_eq!(answers, claimed, "every claimed slot answered exactly once");
 
     let c = client();
@@ -381,10 +502,15 @@ async fn replication(db: TestDb) {
             .header("cookie", &cookie),
     )
     .await;
-    assert!(dash["replicated_tuples"].as_i64().expect("replicated") >= 10, "{dash}");
+    assert!(
+        dash["replicated_tuples"].as_i64().expect("replicated") >= 10,
+        "{dash}"
+    );
     assert!(dash["noise_ceiling"].as_f64().is_some());
     let csv = c
-        .get(format!("{base}/api/v1/admin/studies/{study}/export/triplets.csv"))
+        .get(format!(
+            "{base}/api/v1/admin/studies/{study}/export/triplets.csv"
+        ))
         .header("cookie", &cookie)
         .send()
         .await
@@ -395,7 +521,12 @@ async fn replication(db: TestDb) {
     let mut per_tuple: HashMap<String, HashSet<String>> = HashMap::new();
     for line in csv.lines().skip(1) {
         let cols: Vec<&str> = line.split(',').collect();
-        assert!(per_tuple.entry(cols[5].into()).or_default().insert(cols[4].into()));
+        assert!(
+            per_tuple
+                .entry(cols[5].into())
+                .or_default()
+                .insert(cols[4].into())
+        );
     }
     assert!(per_tuple.values().all(|w| w.len() <= 3));
 }
@@ -421,5 +552,7 @@ async fn pass_training_allowing_full(
     )
     .await;
     assert!(status == 200 || status == 409, "{status} {body}");
-    send(c.get(format!("{base}/api/v1/assignments/{token}"))).await.1
+    send(c.get(format!("{base}/api/v1/assignments/{token}")))
+        .await
+        .1
 }

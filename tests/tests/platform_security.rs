@@ -56,10 +56,10 @@ async fn admin_routes_refuse_anonymous_and_csrf_less_requests() {
         assert_eq!(resp.headers()["location"], "/admin/login");
     }
     // A forged session cookie is not a session.
-    let (status, _) = send(
-        c.get(format!("{base}/api/v1/admin/studies"))
-            .header("cookie", "platform_session=00000000000000000000000000000000"),
-    )
+    let (status, _) = send(c.get(format!("{base}/api/v1/admin/studies")).header(
+        "cookie",
+        "platform_session=00000000000000000000000000000000",
+    ))
     .await;
     assert_eq!(status, 401);
     // Wrong password.
@@ -79,8 +79,14 @@ async fn admin_routes_refuse_anonymous_and_csrf_less_requests() {
         .send()
         .await
         .expect("login");
-    let set_cookie = resp.headers()["set-cookie"].to_str().expect("ascii").to_string();
-    assert!(set_cookie.contains("HttpOnly") && set_cookie.contains("SameSite=Strict"), "{set_cookie}");
+    let set_cookie = resp.headers()["set-cookie"]
+        .to_str()
+        .expect("ascii")
+        .to_string();
+    assert!(
+        set_cookie.contains("HttpOnly") && set_cookie.contains("SameSite=Strict"),
+        "{set_cookie}"
+    );
     let (cookie, csrf) = admin_login(c, base).await;
 
     // Logged in but without / with a wrong CSRF token: refused.
@@ -131,7 +137,11 @@ async fn admin_routes_refuse_anonymous_and_csrf_less_requests() {
     let resp = c
         .post(format!("{base}/admin/studies/{study}/qc"))
         .header("cookie", &cookie)
-        .form(&[("csrf", csrf.as_str()), ("threshold", "2"), ("mode", "dry_run")])
+        .form(&[
+            ("csrf", csrf.as_str()),
+            ("threshold", "2"),
+            ("mode", "dry_run"),
+        ])
         .send()
         .await
         .expect("form");
@@ -144,9 +154,18 @@ async fn malformed_and_oversized_bodies_get_4xx() {
     let (c, base, study) = (&f.c, &f.server.base, f.study);
     let start = format!("{base}/api/v1/studies/{study}/start");
     let cases: Vec<(reqwest::RequestBuilder, u16)> = vec![
-        (c.post(&start).header("content-type", "application/json").body("{not json"), 400),
+        (
+            c.post(&start)
+                .header("content-type", "application/json")
+                .body("{not json"),
+            400,
+        ),
         (c.post(&start).json(&json!({"worker_id": 5})), 400),
-        (c.post(&start).json(&json!({"worker_id": "w", "surprise": 1})), 400),
+        (
+            c.post(&start)
+                .json(&json!({"worker_id": "w", "surprise": 1})),
+            400,
+        ),
         (c.post(&start).body("worker_id=w"), 415),
         (
             c.post(&start)
@@ -154,14 +173,39 @@ async fn malformed_and_oversized_bodies_get_4xx() {
                 .body(format!("{{\"worker_id\": \"{}\"}}", "x".repeat(200_000))),
             413,
         ),
-        (c.post(&start).json(&json!({"worker_id": "x'; DROP TABLE assignments; --"})), 400),
-        (c.post(&start).json(&json!({"worker_id": "<script>alert(1)</script>"})), 400),
-        (c.post(&start).json(&json!({"worker_id": "w", "demographics": {"gender": "robot"}})), 400),
+        (
+            c.post(&start)
+                .json(&json!({"worker_id": "x'; DROP TABLE assignments; --"})),
+            400,
+        ),
+        (
+            c.post(&start)
+                .json(&json!({"worker_id": "<script>alert(1)</script>"})),
+            400,
+        ),
+        (
+            c.post(&start)
+                .json(&json!({"worker_id": "w", "demographics": {"gender": "robot"}})),
+            400,
+        ),
         (c.get(format!("{base}/api/v1/studies/abc")), 404),
         (c.get(format!("{base}/api/v1/studies/99")), 404),
-        (c.get(format!("{base}/api/v1/assignments/%27%20OR%201=1")), 404),
-        (c.post(format!("{base}/api/v1/assignments/00000000000000000000000000000000/answers")).json(&json!({"position": 0, "choice": 1})), 404),
-        (c.post(format!("{base}/s/{study}/start")).form(&[("source", "martian")]), 400),
+        (
+            c.get(format!("{base}/api/v1/assignments/%27%20OR%201=1")),
+            404,
+        ),
+        (
+            c.post(format!(
+                "{base}/api/v1/assignments/00000000000000000000000000000000/answers"
+            ))
+            .json(&json!({"position": 0, "choice": 1})),
+            404,
+        ),
+        (
+            c.post(format!("{base}/s/{study}/start"))
+                .form(&[("source", "martian")]),
+            400,
+        ),
         (c.get(format!("{base}/media/items/nope.png")), 404),
         (c.get(format!("{base}/no/such/page")), 404),
     ];
@@ -179,7 +223,11 @@ async fn malformed_and_oversized_bodies_get_4xx() {
         let (status, b) = send(c.post(&answers).json(&body)).await;
         assert_eq!(status, want, "{body} → {b}");
     }
-    let (status, _) = send(c.post(format!("{base}/api/v1/assignments/{token}/training")).json(&json!({"answers": [{"position": 0, "choice": 1}]}))).await;
+    let (status, _) = send(
+        c.post(format!("{base}/api/v1/assignments/{token}/training"))
+            .json(&json!({"answers": [{"position": 0, "choice": 1}]})),
+    )
+    .await;
     assert_eq!(status, 400, "wrong number of training answers");
     // The database survived everything above.
     let (status, _) = send(c.get(format!("{base}/healthz"))).await;
@@ -211,17 +259,28 @@ async fn uploads_are_validated_with_clear_messages() {
         body.extend_from_slice(format!("\r\n--{boundary}--\r\n").as_bytes());
         c.post(format!("{base}/admin/library/upload"))
             .header("cookie", &cookie)
-            .header("content-type", format!("multipart/form-data; boundary={boundary}"))
+            .header(
+                "content-type",
+                format!("multipart/form-data; boundary={boundary}"),
+            )
             .body(body)
     };
     let good = br#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><circle cx="5" cy="5" r="4" fill="teal"/></svg>"#.to_vec();
-    let resp = upload("ok.svg", good.clone(), &csrf).send().await.expect("upload");
+    let resp = upload("ok.svg", good.clone(), &csrf)
+        .send()
+        .await
+        .expect("upload");
     assert_eq!(resp.status().as_u16(), 200);
     assert!(resp.text().await.expect("body").contains("Stored 1 item"));
     for (name, bytes, want, message) in [
         ("bad.svg", b"<svg><g>".to_vec(), 400, "not a usable SVG"),
         ("evil.exe", b"MZ".to_vec(), 400, "unsupported type"),
-        ("fake.png", b"not a png".to_vec(), 400, "not a readable image"),
+        (
+            "fake.png",
+            b"not a png".to_vec(),
+            400,
+            "not a readable image",
+        ),
         ("big.svg", vec![b' '; 6 * 1024 * 1024], 413, "limit"),
     ] {
         let resp = upload(name, bytes, &csrf).send().await.expect("upload");
@@ -229,7 +288,10 @@ async fn uploads_are_validated_with_clear_messages() {
         let text = resp.text().await.expect("body");
         assert!(text.contains(message), "{name}: {text}");
     }
-    let resp = upload("ok2.svg", good, "wrong").send().await.expect("upload");
+    let resp = upload("ok2.svg", good, "wrong")
+        .send()
+        .await
+        .expect("upload");
     assert_eq!(resp.status().as_u16(), 403);
 }
 
@@ -238,42 +300,66 @@ async fn crowd_platform_parameters_and_handback() {
     let f = fixture(json!({"prolific_completion_code": "C0DE42", "questions_per_hit": 4, "controls_per_hit": 1})).await;
     let (c, base, study) = (&f.c, &f.server.base, f.study);
     // MTurk preview: nothing stored, the page says so, the sandbox banner is on.
-    let (status, body) = send(c.post(format!("{base}/api/v1/studies/{study}/start")).json(&json!({
+    let (status, body) = send(c.post(format!("{base}/api/v1/studies/{study}/start")).json(
+        &json!({
         "assignment_id": "ASSIGNMENT_ID_NOT_AVAILABLE", "hit_id": "H1",
-        "turk_submit_to": "https://workersandbox.mturk.com"}))).await;
+        "turk_submit_to": "https://workersandbox.mturk.com"}),
+    ))
+    .await;
     assert_eq!(status, 200);
     assert_eq!(body["kind"], "preview");
     assert_eq!(body["sandbox"], true);
     let html = c
         .get(format!("{base}/s/{study}?assignmentId=ASSIGNMENT_ID_NOT_AVAILABLE&hitId=H1&turkSubmitTo=https%3A%2F%2Fworkersandbox.mturk.com"))
         .send().await.expect("page").text().await.expect("html");
-    assert!(html.contains("id=\"preview\"") && html.contains("SANDBOX"), "{html}");
+    assert!(
+        html.contains("id=\"preview\"") && html.contains("SANDBOX"),
+        "{html}"
+    );
     assert!(!html.contains("id=\"start-form\""));
     // A live-site HIT for a sandbox study is refused, as is a foreign submit address.
     for submit in ["https://www.mturk.com", "https://evil.example"] {
-        let (status, _) = send(c.post(format!("{base}/api/v1/studies/{study}/start")).json(&json!({
-            "assignment_id": "A1", "hit_id": "H1", "worker_id": "W1", "turk_submit_to": submit}))).await;
+        let (status, _) = send(
+            c.post(format!("{base}/api/v1/studies/{study}/start"))
+                .json(&json!({
+            "assignment_id": "A1", "hit_id": "H1", "worker_id": "W1", "turk_submit_to": submit})),
+        )
+        .await;
         assert_eq!(status, 400, "{submit}");
     }
     // A sandbox MTurk worker gets the externalSubmit form.
     let styles = item_styles(&f._db.url).await;
-    let (_, started) = send(c.post(format!("{base}/api/v1/studies/{study}/start")).json(&json!({
+    let (_, started) = send(
+        c.post(format!("{base}/api/v1/studies/{study}/start"))
+            .json(&json!({
         "assignment_id": "ASG1", "hit_id": "HIT1", "worker_id": "WORKER1",
-        "turk_submit_to": "https://workersandbox.mturk.com"}))).await;
+        "turk_submit_to": "https://workersandbox.mturk.com"})),
+    )
+    .await;
     let token = started["token"].as_str().expect("token").to_string();
     pass_training(c, base, &token, &styles, Behaviour::Honest).await;
     let done = answer_all(c, base, &token, &styles, Behaviour::Honest).await;
     assert_eq!(done["handback"]["kind"], "mturk_form");
-    assert_eq!(done["handback"]["action"], "https://workersandbox.mturk.com/mturk/externalSubmit");
+    assert_eq!(
+        done["handback"]["action"],
+        "https://workersandbox.mturk.com/mturk/externalSubmit"
+    );
     assert_eq!(done["handback"]["assignment_id"], "ASG1");
     assert_eq!(done["sandbox"], true);
     // Prolific: redirect with the study's completion code.
-    let (_, started) = send(c.post(format!("{base}/api/v1/studies/{study}/start")).json(&json!({
-        "worker_id": "PID1", "prolific_study_id": "S1", "prolific_session_id": "SESS1"}))).await;
+    let (_, started) = send(
+        c.post(format!("{base}/api/v1/studies/{study}/start"))
+            .json(&json!({
+        "worker_id": "PID1", "prolific_study_id": "S1", "prolific_session_id": "SESS1"})),
+    )
+    .await;
     let token = started["token"].as_str().expect("token").to_string();
     pass_training(c, base, &token, &styles, Behaviour::Honest).await;
     let done = answer_all(c, base, &token, &styles, Behaviour::Honest).await;
-    assert_eq!(done["handback"]["url"], "https://app.prolific.com/submissions/complete?cc=C0DE42");
+    assert_eq!(
+        done["handback"]["url"],
+        "https://app.prolific.com/submissions/complete?cc=C0DE42"
+    );
     // Giving up the training: screen-out code, not a rejection.
     let token = start_worker(c, base, study, "quitter").await;
     let (status, st) = send(c.post(format!("{base}/api/v1/assignments/{token}/give-up"))).await;
@@ -283,21 +369,46 @@ async fn crowd_platform_parameters_and_handback() {
     // Per-study block list.
     let (cookie, _) = admin_login(c, base).await;
     let mturk_csv = c
-        .get(format!("{base}/api/v1/admin/studies/{study}/export/mturk_decisions.csv"))
-        .header("cookie", &cookie).send().await.expect("csv").text().await.expect("csv");
+        .get(format!(
+            "{base}/api/v1/admin/studies/{study}/export/mturk_decisions.csv"
+        ))
+        .header("cookie", &cookie)
+        .send()
+        .await
+        .expect("csv")
+        .text()
+        .await
+        .expect("csv");
     assert!(mturk_csv.starts_with("AssignmentId,WorkerId,HITId,Approve,Reject"));
     assert!(mturk_csv.contains("ASG1,WORKER1,HIT1,x,"), "{mturk_csv}");
     let xml = c
-        .get(format!("{base}/api/v1/admin/studies/{study}/export/external_question.xml"))
-        .header("cookie", &cookie).send().await.expect("xml").text().await.expect("xml");
-    assert!(xml.contains(&format!("<ExternalURL>{base}/s/{study}</ExternalURL>")), "{xml}");
+        .get(format!(
+            "{base}/api/v1/admin/studies/{study}/export/external_question.xml"
+        ))
+        .header("cookie", &cookie)
+        .send()
+        .await
+        .expect("xml")
+        .text()
+        .await
+        .expect("xml");
+    assert!(
+        xml.contains(&format!("<ExternalURL>{base}/s/{study}</ExternalURL>")),
+        "{xml}"
+    );
 }
 
 #[tokio::test]
 async fn blocked_workers_are_refused() {
     let f = fixture(json!({"blocked_workers": ["BAD1"]})).await;
-    let (status, body) = send(f.c.post(format!("{}/api/v1/studies/{}/start", f.server.base, f.study))
-        .json(&json!({"worker_id": "BAD1"}))).await;
+    let (status, body) = send(
+        f.c.post(format!(
+            "{}/api/v1/studies/{}/start",
+            f.server.base, f.study
+        ))
+        .json(&json!({"worker_id": "BAD1"})),
+    )
+    .await;
     assert_eq!(status, 403, "{body}");
 }
 
@@ -307,16 +418,34 @@ async fn html_is_escaped_and_openapi_describes_the_flow() {
     let (c, base, study) = (&f.c, &f.server.base, f.study);
     let html = c
         .get(format!("{base}/s/{study}?participant=p1"))
-        .send().await.expect("page").text().await.expect("html");
+        .send()
+        .await
+        .expect("page")
+        .text()
+        .await
+        .expect("html");
     assert!(!html.contains("<script>alert"), "{html}");
-    assert!(html.contains("&lt;script&gt;") || html.contains("&#60;script&#62;") || html.contains("&lt;script"), "{html}");
+    assert!(
+        html.contains("&lt;script&gt;")
+            || html.contains("&#60;script&#62;")
+            || html.contains("&lt;script"),
+        "{html}"
+    );
     let (status, doc) = send(c.get(format!("{base}/api/v1/openapi.json"))).await;
     assert_eq!(status, 200);
     assert!(doc["openapi"].as_str().expect("version").starts_with("3."));
-    for p in ["/api/v1/studies/{study}/start", "/api/v1/assignments/{token}/answers", "/api/v1/assignments/{token}/training", "/healthz"] {
+    for p in [
+        "/api/v1/studies/{study}/start",
+        "/api/v1/assignments/{token}/answers",
+        "/api/v1/assignments/{token}/training",
+        "/api/v1/admin/studies/{study}/curated",
+        "/healthz",
+    ] {
         assert!(doc["paths"].get(p).is_some(), "{p} missing from OpenAPI");
     }
-    let props = doc["components"]["schemas"]["QuestionView"]["properties"].as_object().expect("QuestionView");
+    let props = doc["components"]["schemas"]["QuestionView"]["properties"]
+        .as_object()
+        .expect("QuestionView");
     let mut keys: Vec<&str> = props.keys().map(String::as_str).collect();
     keys.sort_unstable();
     assert_eq!(keys, ["left", "position", "reference", "right"]);
