@@ -62,7 +62,7 @@ pub async fn create_admin(db: &Db, username: &str, password: &str) -> Result<Adm
     .bind(username)
     .bind(hash)
     .bind(now_ms())
-    .execute(&db.pool)
+    .execute(&db.writer)
     .await?;
     let row = sqlx::query("SELECT id FROM admins WHERE username = $1")
         .bind(username)
@@ -107,7 +107,7 @@ pub async fn login(db: &Db, username: &str, password: &str) -> Result<Option<(St
     let csrf = random_token();
     sqlx::query("DELETE FROM sessions WHERE expires_at < $1")
         .bind(now_ms())
-        .execute(&db.pool)
+        .execute(&db.writer)
         .await?;
     sqlx::query(
         "INSERT INTO sessions (token_hash, admin_id, csrf, expires_at) VALUES ($1, $2, $3, $4)",
@@ -116,7 +116,7 @@ pub async fn login(db: &Db, username: &str, password: &str) -> Result<Option<(St
     .bind(id)
     .bind(&csrf)
     .bind(now_ms() + SESSION_MS)
-    .execute(&db.pool)
+    .execute(&db.writer)
     .await?;
     Ok(Some((token, csrf)))
 }
@@ -125,7 +125,7 @@ pub async fn login(db: &Db, username: &str, password: &str) -> Result<Option<(St
 pub async fn logout(db: &Db, token: &str) -> Result<()> {
     sqlx::query("DELETE FROM sessions WHERE token_hash = $1")
         .bind(hash_token(token))
-        .execute(&db.pool)
+        .execute(&db.writer)
         .await?;
     Ok(())
 }

@@ -86,8 +86,9 @@ fn swatch(i: usize) -> NewItem {
 
 async fn prepare(db: &Db, workers: usize, seconds: u64) -> Result<StudyId> {
     let lib = library::ensure_library(db, "bench").await?;
-    if library::list_items(db, lib).await?.len() < 24 {
-        for i in 0..24 {
+    // 64 items: ~120,000 distinct triplets, enough slots for 1000 concurrent HITs.
+    if library::list_items(db, lib).await?.len() < 64 {
+        for i in 0..64 {
             library::insert_item(db, lib, swatch(i)).await?;
         }
     }
@@ -162,8 +163,11 @@ async fn answer_phase(
             let mut hit = 0;
             while !stop.load(Ordering::Relaxed) {
                 hit += 1;
-                let Ok(token) = start_hit(&client, &base, study, &format!("bench-{w}-{hit}")).await
-                else {
+                let started = start_hit(&client, &base, study, &format!("bench-{w}-{hit}")).await;
+                let Ok(token) = started else {
+                    if errors == 0 && w == 0 {
+                        eprintln!("first start error: {started:?}");
+                    }
                     errors += 1;
                     tokio::time::sleep(Duration::from_millis(50)).await;
                     continue;
@@ -187,7 +191,12 @@ async fn answer_phase(
                         Ok(r) if r.status().is_success() => {
                             lat.push(t.elapsed().as_secs_f64() * 1e3)
                         }
-                        _ => errors += 1,
+                        other => {
+                            if errors == 0 && w == 0 {
+                                eprintln!("first answer error: {:?}", other.map(|r| r.status()));
+                            }
+                            errors += 1
+                        }
                     }
                 }
             }

@@ -26,8 +26,13 @@ pub enum Backend {
 /// A pool plus the facts about its backend.
 #[derive(Debug, Clone)]
 pub struct Db {
-    /// The connection pool.
+    /// The connection pool for reads (and, on PostgreSQL, everything).
     pub pool: AnyPool,
+    /// The pool for writes. On SQLite it has one connection, so writers queue in the pool
+    /// (FIFO, without SQLite's sleeping busy handler) while readers proceed in parallel (WAL);
+    /// on PostgreSQL it is the same pool as `pool`. A performance measure only: correctness
+    /// rests on the transactions, not on this queue.
+    pub writer: AnyPool,
     /// The backend behind it.
     pub backend: Backend,
 }
@@ -62,30 +67,42 @@ impl Db {
             Backend::Sqlite if !url.contains('?') => format!("{url}?mode=rwc"),
             _ => url.to_string(),
         };
-        let mut options = AnyPoolOptions::new()
-            .max_connections(max_connections)
-            .acquire_timeout(Duration::from_secs(10));
-        if backend == Backend::Sqlite {
-            options = options.after_connect(|conn, _meta| {
-                Box::pin(async move {
-                    conn.execute("PRAGMA journal_mode=WAL").await?;
-                    conn.execute("PRAGMA synchronous=FULL").await?;
-                    conn.execute("PRAGMA foreign_keys=ON").await?;
-                    conn.execute("PRAGMA busy_timeout=10000").await?;
-                    Ok(())
+        let options = |max: u32| {
+            let options = AnyPoolOptions::new()
+                .max_connections(max)
+                .acquire_timeout(Duration::from_secs(30));
+            if backend == Backend::Sqlite {
+                options.after_connect(|conn, _meta| {
+                    Box::pin(async move {
+                        conn.execute("PRAGMA journal_mode=WAL").await?;
+                        conn.execute("PRAGMA synchronous=FULL").await?;
+                        conn.execute("PRAGMA foreign_keys=ON").await?;
+                        conn.execute("PRAGMA busy_timeout=10000").await?;
+                        Ok(())
+                    })
                 })
-            });
-        }
-        let pool = options.connect(&url).await?;
+            } else {
+                options
+            }
+        };
+        let pool = options(max_connections).connect(&url).await?;
         MIGRATOR.run(&pool).await?;
-        Ok(Self { pool, backend })
+        let writer = match backend {
+            Backend::Sqlite => options(1).connect(&url).await?,
+            Backend::Postgres => pool.clone(),
+        };
+        Ok(Self {
+            pool,
+            writer,
+            backend,
+        })
     }
 
     /// Begins a write transaction (`BEGIN IMMEDIATE` on SQLite).
     pub async fn begin_write(&self) -> Result<Transaction<'static, Any>> {
         Ok(match self.backend {
-            Backend::Sqlite => self.pool.begin_with("BEGIN IMMEDIATE").await?,
-            Backend::Postgres => self.pool.begin().await?,
+            Backend::Sqlite => self.writer.begin_with("BEGIN IMMEDIATE").await?,
+            Backend::Postgres => self.writer.begin().await?,
         })
     }
 

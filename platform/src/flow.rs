@@ -261,7 +261,7 @@ pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOut
     .bind(req.prolific_session_id)
     .bind(serde_json::to_string(&demographics).map_err(AppError::internal)?)
     .bind(now_ms())
-    .execute(&db.pool)
+    .execute(&db.writer)
     .await?;
     if inserted.rows_affected() == 0 {
         // A concurrent start of the same worker won the race: resume theirs.
@@ -291,7 +291,7 @@ async fn ensure_worker(db: &Db, source: Source, external: &str) -> Result<Worker
     .bind(source.as_str())
     .bind(external)
     .bind(now_ms())
-    .execute(&db.pool)
+    .execute(&db.writer)
     .await?;
     let row = sqlx::query("SELECT id FROM workers WHERE source = $1 AND external_id = $2")
         .bind(source.as_str())
@@ -586,7 +586,7 @@ pub async fn give_up(db: &Db, a: &Assignment) -> Result<()> {
     )
     .bind(now_ms())
     .bind(a.id.0)
-    .execute(&db.pool)
+    .execute(&db.writer)
     .await?;
     if done.rows_affected() == 0 && a.status != "screened_out" {
         return Err(AppError::Conflict(format!(
@@ -634,40 +634,56 @@ pub async fn allocate(
         return Ok(0);
     }
     let now = now_ms();
-    // One claim per statement: the first free slot (in tuple order) of a tuple this worker has
-    // not seen. PostgreSQL locks only that row and skips rows other allocators are claiming, so
-    // concurrent allocations neither wait on nor deadlock with each other; the outer
-    // `assignment_id IS NULL` is the final guard against a double fill. On SQLite,
-    // `BEGIN IMMEDIATE` already serialises writers.
+    // One claim per statement: the first free slot after the previously claimed tuple (in
+    // tuple order), so the claimed tuples are distinct without an anti-join (a worker has one
+    // assignment per study, so it holds no other slot of this study; the unique index on
+    // (tuple_id, worker_id) stays the hard guarantee). PostgreSQL locks only that row and skips
+    // rows other allocators are claiming, so concurrent allocations neither wait on nor
+    // deadlock with each other; the outer `assignment_id IS NULL` is the final guard against a
+    // double fill. On SQLite, `BEGIN IMMEDIATE` already serialises writers.
     let sql = match db.backend {
         Backend::Sqlite => {
             "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
              WHERE assignment_id IS NULL AND id = (SELECT s.id FROM slots s \
-               WHERE s.study_id = $4 AND s.assignment_id IS NULL \
-               AND NOT EXISTS (SELECT 1 FROM slots w WHERE w.tuple_id = s.tuple_id AND w.worker_id = $2) \
+               WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
                ORDER BY s.seq, s.replica LIMIT 1) \
-             RETURNING id, tuple_id"
+             RETURNING id, tuple_id, seq"
         }
         Backend::Postgres => {
             "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
              WHERE assignment_id IS NULL AND id = (SELECT s.id FROM slots s \
-               WHERE s.study_id = $4 AND s.assignment_id IS NULL \
-               AND NOT EXISTS (SELECT 1 FROM slots w WHERE w.tuple_id = s.tuple_id AND w.worker_id = $2) \
+               WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
                ORDER BY s.seq, s.replica LIMIT 1 FOR UPDATE OF s SKIP LOCKED) \
-             RETURNING id, tuple_id"
+             RETURNING id, tuple_id, seq"
         }
     };
+    // Start at a random tuple and wrap around once: concurrent allocators spread over the
+    // table instead of all scanning (and, on PostgreSQL, skipping) the same first free rows.
     let mut claimed: Vec<(i64, i64)> = Vec::with_capacity(wanted);
+    let start = rng.random_range(-1..i64::from(s.tuples).max(0));
+    let (mut lower, mut upper) = (start, i64::MAX);
+    let (mut first_seq, mut wrapped) = (None, false);
     while claimed.len() < wanted {
         let row = sqlx::query(sql)
             .bind(assignment.0)
             .bind(worker.0)
             .bind(now)
             .bind(study.id.0)
+            .bind(lower)
+            .bind(upper)
             .fetch_optional(&mut *tx)
             .await?;
         match row {
-            Some(r) => claimed.push((r.try_get("id")?, r.try_get("tuple_id")?)),
+            Some(r) => {
+                claimed.push((r.try_get("id")?, r.try_get("tuple_id")?));
+                lower = r.try_get("seq")?;
+                first_seq.get_or_insert(lower);
+            }
+            None if !wrapped => {
+                wrapped = true;
+                upper = first_seq.unwrap_or(start + 1);
+                lower = -1;
+            }
             None => break,
         }
     }
@@ -782,7 +798,7 @@ pub async fn answer(
             .bind(req.elapsed_ms)
             .bind(a.id.0)
             .bind(req.position)
-            .execute(&db.pool)
+            .execute(&db.writer)
             .await?;
             if stored.rows_affected() == 0 {
                 // A concurrent duplicate won: same answer → duplicate, else conflict.
@@ -931,7 +947,7 @@ pub async fn submit_reasons(db: &Db, a: &Assignment, req: &ReasonsRequest) -> Re
     .bind(text)
     .bind(a.id.0)
     .bind(req.position)
-    .execute(&db.pool)
+    .execute(&db.writer)
     .await?;
     Ok(())
 }

@@ -486,7 +486,7 @@ pub async fn add_curated(db: &Db, study: &Study, kind: &str, names: [&str; 3]) -
     .bind(ids[0])
     .bind(ids[1])
     .bind(ids[2])
-    .execute(&db.pool)
+    .execute(&db.writer)
     .await?;
     Ok(id)
 }
