@@ -39,7 +39,10 @@ pub fn sqlite_db() -> TestDb {
 /// A new, empty PostgreSQL database, or `None` (locally) when `TEST_POSTGRES_URL` is unset.
 /// In CI (`CI=true`) a missing `TEST_POSTGRES_URL` fails the test.
 pub async fn postgres_db() -> Option<TestDb> {
-    let Ok(admin_url) = std::env::var("TEST_POSTGRES_URL") else {
+    let Some(admin_url) = std::env::var("TEST_POSTGRES_URL")
+        .ok()
+        .filter(|u| !u.is_empty())
+    else {
         if std::env::var("CI").is_ok_and(|v| v == "true" || v == "1") {
             panic!(
                 "TEST_POSTGRES_URL is not set: CI must run the PostgreSQL platform tests \
