@@ -49,7 +49,8 @@ use crate::study::{self, MturkMode, PoolSummary, StudySettings};
         admin_decision,
         admin_export,
         admin_curated,
-        admin_verify_code
+        admin_verify_code,
+        admin_release
     ),
     components(schemas(
         ErrorBody,
@@ -85,7 +86,9 @@ use crate::study::{self, MturkMode, PoolSummary, StudySettings};
         DecisionRequest,
         CuratedRequest,
         CuratedCreated,
-        CodeCheck
+        CodeCheck,
+        ReleaseRequest,
+        Released
     ))
 )]
 pub struct ApiDoc;
@@ -123,6 +126,10 @@ pub fn routes() -> Router<AppState> {
             get(admin_export),
         )
         .route("/api/v1/admin/studies/{study}/curated", post(admin_curated))
+        .route(
+            "/api/v1/admin/studies/{study}/release-abandoned",
+            post(admin_release),
+        )
         .route(
             "/api/v1/admin/studies/{study}/codes/{code}",
             get(admin_verify_code),
@@ -585,4 +592,35 @@ async fn admin_verify_code(
         valid: assignment.is_some(),
         assignment,
     }))
+}
+
+/// Expiring abandoned assignments.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ReleaseRequest {
+    /// Expire assignments started at least this many minutes ago that are not finished.
+    pub older_than_minutes: u32,
+}
+
+/// How many assignments were expired.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct Released {
+    /// Expired assignments (their unanswered slots are free again).
+    pub released: usize,
+}
+
+/// Expires abandoned assignments and frees their unanswered slots (CSRF header required).
+#[utoipa::path(post, path = "/api/v1/admin/studies/{study}/release-abandoned",
+    params(("study" = i64, Path)), request_body = ReleaseRequest,
+    responses((status = 200, body = Released), (status = 401, body = ErrorBody), (status = 403, body = ErrorBody)))]
+async fn admin_release(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<StudyId>,
+    ApiJson(req): ApiJson<ReleaseRequest>,
+) -> Result<Json<Released>> {
+    study::load(&state.db, id).await?;
+    let released =
+        flow::release_abandoned(&state.db, id, i64::from(req.older_than_minutes) * 60_000).await?;
+    Ok(Json(Released { released }))
 }

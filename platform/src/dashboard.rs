@@ -39,6 +39,8 @@ pub struct Dashboard {
     pub completed: i64,
     /// Screened out in training.
     pub screened_out: i64,
+    /// Expired before finishing (slots released).
+    pub abandoned: i64,
     /// Completed and approved.
     pub approved: i64,
     /// Completed and rejected.
@@ -167,6 +169,7 @@ pub async fn compute(db: &Db, study: &Study) -> Result<(Dashboard, Vec<WorkerRow
             "active" => d.active += 1,
             "completed" => d.completed += 1,
             "screened_out" => d.screened_out += 1,
+            "abandoned" => d.abandoned += 1,
             _ => {}
         }
         let errors: i64 = r.try_get("control_errors")?;

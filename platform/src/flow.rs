@@ -597,6 +597,55 @@ pub async fn give_up(db: &Db, a: &Assignment) -> Result<()> {
     Ok(())
 }
 
+/// Expires assignments that started more than `older_than_ms` ago and are still in training or
+/// answering: they become `abandoned` (further answers are refused) and the slots of their
+/// unanswered questions are freed for other workers. Answers already given are kept. Returns
+/// the number of expired assignments.
+pub async fn release_abandoned(db: &Db, study: StudyId, older_than_ms: i64) -> Result<usize> {
+    let cutoff = now_ms() - older_than_ms.max(0);
+    let rows = sqlx::query(
+        "SELECT id FROM assignments WHERE study_id = $1 AND status IN ('training', 'active') \
+         AND started_at <= $2",
+    )
+    .bind(study.0)
+    .bind(cutoff)
+    .fetch_all(&db.pool)
+    .await?;
+    let mut released = 0;
+    for r in rows {
+        let id: i64 = r.try_get("id")?;
+        let mut tx = db.begin_write().await?;
+        let moved = sqlx::query(
+            "UPDATE assignments SET status = 'abandoned', completed_at = $1 WHERE id = $2 \
+             AND status IN ('training', 'active')",
+        )
+        .bind(now_ms())
+        .bind(id)
+        .execute(&mut *tx)
+        .await?;
+        if moved.rows_affected() == 1 {
+            sqlx::query(
+                "UPDATE slots SET assignment_id = NULL, worker_id = NULL, claimed_at = NULL \
+                 WHERE assignment_id = $1 AND id IN \
+                 (SELECT slot_id FROM questions WHERE assignment_id = $1 AND choice IS NULL \
+                  AND slot_id IS NOT NULL)",
+            )
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
+            sqlx::query(
+                "UPDATE questions SET slot_id = NULL WHERE assignment_id = $1 AND choice IS NULL",
+            )
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
+            released += 1;
+        }
+        tx.commit().await?;
+    }
+    Ok(released)
+}
+
 /// Allocates the HIT: claims up to `questions - controls` free slots of distinct tuples the
 /// worker has never seen (one conditional `UPDATE` per slot: a slot is filled by exactly one
 /// assignment on both databases), adds the hidden controls, shuffles positions.
@@ -1030,6 +1079,7 @@ pub async fn state(db: &Db, study: &Study, a: &Assignment) -> Result<AssignmentS
     };
     match a.status.as_str() {
         "training" => st.training = training_questions(db, a).await?,
+        "abandoned" => {}
         "screened_out" => {
             let code = code(&study.secret, "screenout", a.id);
             st.handback = Some(handback(study, a, &code, true));

@@ -315,6 +315,11 @@ async fn show_assignment(
     let s = flow::study_of(&state.db, &a).await?;
     let st = flow::state(&state.db, &s, &a).await?;
     let sandbox = st.sandbox;
+    if st.status == "abandoned" {
+        return Err(AppError::Conflict(
+            "this assignment has expired; please return the HIT".into(),
+        ));
+    }
     if st.status == "training" {
         let failed = feedback.is_some();
         let questions = st

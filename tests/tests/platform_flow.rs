@@ -256,6 +256,60 @@ async fn worker_flow(db: TestDb) {
     ] {
         assert!(dir.path().join(f).exists(), "{f} missing");
     }
+    // An abandoned assignment expires: its unanswered slots are freed, further answers refused.
+    let token2 = start_worker(&c, base, study, "worker-2").await;
+    pass_training(&c, base, &token2, &styles, Behaviour::Honest).await;
+    let (_, st2) = send(c.get(format!("{base}/api/v1/assignments/{token2}"))).await;
+    let q2 = st2["question"].clone();
+    let choice2 = choose(&q2, &styles, Behaviour::Honest);
+    let (status, _) = send(
+        c.post(format!("{base}/api/v1/assignments/{token2}/answers"))
+            .json(&json!({"position": q2["position"], "choice": choice2})),
+    )
+    .await;
+    assert_eq!(status, 200);
+    let (status, released) = send(
+        c.post(format!(
+            "{base}/api/v1/admin/studies/{study}/release-abandoned"
+        ))
+        .header("cookie", &cookie)
+        .header("x-csrf-token", &csrf)
+        .json(&json!({"older_than_minutes": 0})),
+    )
+    .await;
+    assert_eq!(
+        (status, released["released"].clone()),
+        (200, json!(1)),
+        "{released}"
+    );
+    let (_, st2) = send(c.get(format!("{base}/api/v1/assignments/{token2}"))).await;
+    assert_eq!(st2["status"], "abandoned");
+    assert!(
+        st2["question"].is_null(),
+        "an expired assignment offers no question"
+    );
+    let claimed = scalar(
+        &db.url,
+        "SELECT CAST(COUNT(*) AS BIGINT) FROM slots WHERE assignment_id IS NOT NULL",
+    )
+    .await;
+    let held = scalar(
+        &db.url,
+        "SELECT CAST(COUNT(*) AS BIGINT) FROM questions WHERE slot_id IS NOT NULL",
+    )
+    .await;
+    assert_eq!(claimed, held);
+    assert!(
+        (9..=10).contains(&claimed),
+        "worker-1's 9 + at most 1 answered by worker-2: {claimed}"
+    );
+    let (status, _) = send(
+        c.post(format!("{base}/api/v1/assignments/{token2}/answers"))
+            .json(&json!({"position": q2["position"], "choice": choice2})),
+    )
+    .await;
+    assert_eq!(status, 409, "no answers after expiry");
+
     let status = platform_ok(
         &[
             "study",
