@@ -399,17 +399,31 @@ async fn crowd_platform_parameters_and_handback() {
 }
 
 #[tokio::test]
-async fn blocked_workers_are_refused() {
+async fn blocked_workers_and_workers_of_earlier_studies_are_refused() {
     let f = fixture(json!({"blocked_workers": ["BAD1"]})).await;
+    let (c, base) = (&f.c, &f.server.base);
     let (status, body) = send(
-        f.c.post(format!(
-            "{}/api/v1/studies/{}/start",
-            f.server.base, f.study
-        ))
-        .json(&json!({"worker_id": "BAD1"})),
+        c.post(format!("{base}/api/v1/studies/{}/start", f.study))
+            .json(&json!({"worker_id": "BAD1"})),
     )
     .await;
     assert_eq!(status, 403, "{body}");
+    start_worker(c, base, f.study, "veteran").await;
+    // A follow-up study excludes the first study's workers.
+    let second = setup_study(
+        &f._db,
+        &StudyOpts {
+            extra: json!({"exclude_workers_of": [f.study]}),
+            ..StudyOpts::default()
+        },
+    );
+    let (status, body) = send(
+        c.post(format!("{base}/api/v1/studies/{second}/start"))
+            .json(&json!({"worker_id": "veteran"})),
+    )
+    .await;
+    assert_eq!(status, 403, "{body}");
+    start_worker(c, base, second, "newcomer").await;
 }
 
 #[tokio::test]
