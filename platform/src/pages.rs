@@ -821,12 +821,28 @@ struct AdminStudy {
     ceiling: String,
     median: String,
     histogram: Vec<(i64, i64, i64)>,
-    per_hour: Vec<(i64, i64)>,
+    per_hour: Vec<(String, i64)>,
     threshold: u32,
     qc: Vec<RuleOutcome>,
     workers: Vec<dashboard::WorkerRow>,
     audit: Vec<DecisionRecord>,
     files: &'static [&'static str],
+}
+
+/// `YYYY-MM-DD HH:00 UTC` of a Unix-ms time (civil-from-days, proleptic Gregorian).
+fn utc_hour(ms: i64) -> String {
+    let secs = ms.div_euclid(1000);
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!("{year:04}-{month:02}-{day:02} {:02}:00 UTC", rem / 3600)
 }
 
 fn fmt_opt(v: Option<f64>) -> String {
@@ -867,7 +883,11 @@ async fn study_page(
         ceiling: fmt_opt(d.noise_ceiling),
         median: fmt_opt(d.median_seconds_per_question),
         histogram,
-        per_hour: d.answers_per_hour.clone(),
+        per_hour: d
+            .answers_per_hour
+            .iter()
+            .map(|&(h, n)| (utc_hour(h), n))
+            .collect(),
         d,
         threshold: s.settings.reject_at_control_errors,
         qc: qc_result,
@@ -963,4 +983,17 @@ async fn admin_export(
         }
         .await,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn utc_hours() {
+        assert_eq!(utc_hour(0), "1970-01-01 00:00 UTC");
+        // 2026-11-22 03:00:00 UTC.
+        assert_eq!(utc_hour(1_795_316_400_000), "2026-11-22 03:00 UTC");
+        assert_eq!(utc_hour(951_782_400_000), "2000-02-29 00:00 UTC");
+    }
 }
