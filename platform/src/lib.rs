@@ -1,5 +1,137 @@
-//! The rating-study platform: triplet studies ("Is A more similar in style to B or to C?"),
-//! quality control, dashboard and exports, plus style search and exploration on top of the
-//! learned metric.
+//! The rating-study platform of Garces et al. 2014 (§5.4) and 2016 (§6.3.2): triplet studies
+//! ("Is A more similar in style to B or to C?") for MTurk, Prolific and direct links, with a
+//! training gate, hidden control questions, quality control with an audit trail, an admin
+//! dashboard and exports in the learner's triplet format.
 //!
-//! This crate is laid down by the workspace issue; the server arrives with the platform issue.
+//! The server is [`app`] over an [`AppState`]; all state lives in the database (SQLite or
+//! PostgreSQL, one migration set), so several servers can share one PostgreSQL.
+//!
+//! ```no_run
+//! # async fn demo() -> Result<(), platform::error::AppError> {
+//! let db = platform::db::Db::connect("sqlite://study.db", 8).await?;
+//! let state = platform::AppState::new(db, "http://127.0.0.1:8080".into(), false, 65536);
+//! let listener = tokio::net::TcpListener::bind("127.0.0.1:8080").await.map_err(platform::error::AppError::internal)?;
+//! axum::serve(listener, platform::app(state)).await.map_err(platform::error::AppError::internal)?;
+//! # Ok(()) }
+//! ```
+
+use std::sync::Arc;
+
+use axum::Router;
+use axum::extract::DefaultBodyLimit;
+use axum::http::{HeaderValue, header};
+use tower_http::set_header::SetResponseHeaderLayer;
+
+pub mod admin;
+pub mod api;
+pub mod bench;
+pub mod cli;
+pub mod dashboard;
+pub mod db;
+pub mod demo;
+pub mod error;
+pub mod export;
+pub mod extract;
+pub mod flow;
+pub mod ids;
+pub mod library;
+pub mod pages;
+pub mod qc;
+pub mod study;
+
+/// Server-wide settings that are not in the database.
+#[derive(Debug, Clone)]
+pub struct ServerSettings {
+    /// The address workers and MTurk reach this server at (links, ExternalQuestion).
+    pub public_url: String,
+    /// Mark the session cookie `Secure` (behind HTTPS).
+    pub secure_cookies: bool,
+    /// Largest accepted request body (uploads have their own limit).
+    pub max_body_bytes: usize,
+}
+
+/// What every handler gets.
+#[derive(Debug, Clone)]
+pub struct AppState {
+    /// The database.
+    pub db: db::Db,
+    /// Settings.
+    pub settings: Arc<ServerSettings>,
+}
+
+impl AppState {
+    /// Bundles a database and settings.
+    pub fn new(
+        db: db::Db,
+        public_url: String,
+        secure_cookies: bool,
+        max_body_bytes: usize,
+    ) -> Self {
+        Self {
+            db,
+            settings: Arc::new(ServerSettings {
+                public_url,
+                secure_cookies,
+                max_body_bytes,
+            }),
+        }
+    }
+}
+
+/// Largest multipart upload (several files of at most [`library::MAX_UPLOAD_BYTES`]).
+pub const MAX_UPLOAD_REQUEST: usize = 10 * library::MAX_UPLOAD_BYTES;
+
+/// The whole application: JSON API, worker pages, admin pages.
+pub fn app(state: AppState) -> Router {
+    let limit = state.settings.max_body_bytes;
+    let upload = Router::new()
+        .route(
+            "/admin/library/upload",
+            axum::routing::post(pages::upload_handler),
+        )
+        .layer(DefaultBodyLimit::max(MAX_UPLOAD_REQUEST));
+    Router::new()
+        .merge(api::routes())
+        .merge(pages::routes())
+        .layer(DefaultBodyLimit::max(limit))
+        .merge(upload)
+        .fallback(|| async { error::AppError::NotFound("page") })
+        .layer(SetResponseHeaderLayer::overriding(
+            header::REFERRER_POLICY,
+            HeaderValue::from_static("no-referrer"),
+        ))
+        .layer(SetResponseHeaderLayer::overriding(
+            header::X_CONTENT_TYPE_OPTIONS,
+            HeaderValue::from_static("nosniff"),
+        ))
+        .with_state(state)
+}
+
+/// Serves `app` on `listener` until Ctrl-C / SIGTERM.
+pub async fn serve(listener: tokio::net::TcpListener, state: AppState) -> std::io::Result<()> {
+    axum::serve(listener, app(state))
+        .with_graceful_shutdown(async {
+            let ctrl_c = tokio::signal::ctrl_c();
+            #[cfg(unix)]
+            {
+                let mut term =
+                    match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+                    {
+                        Ok(t) => t,
+                        Err(_) => {
+                            let _ = ctrl_c.await;
+                            return;
+                        }
+                    };
+                tokio::select! {
+                    _ = ctrl_c => {},
+                    _ = term.recv() => {},
+                }
+            }
+            #[cfg(not(unix))]
+            {
+                let _ = ctrl_c.await;
+            }
+        })
+        .await
+}

@@ -58,3 +58,5 @@ pub fn learner(args: &[&std::ffi::OsStr]) -> Output {
         .output()
         .expect("run learner")
 }
+
+pub mod platform;

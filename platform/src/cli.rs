@@ -1,0 +1,352 @@
+//! The command line: one clap `Cli` whose settings all have `--flag` and `PLATFORM_*`
+//! environment variables; [`run`] wires them to the library. `main` only parses and reports.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+use crate::db::{Db, redact};
+use crate::error::{AppError, Result};
+use crate::export::ExportOptions;
+use crate::ids::StudyId;
+use crate::study::{MturkMode, StudySettings};
+use crate::{AppState, admin, bench, dashboard, demo, export, library, study};
+
+/// Rating-study platform for clip-art style similarity.
+#[derive(Debug, Parser)]
+#[command(name = "platform", version, about)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the server.
+    Serve(ServerArgs),
+    /// A ready-to-use demo: SQLite file, fixture library, a study, an admin, then serve.
+    Demo(DemoArgs),
+    /// Manage item libraries.
+    #[command(subcommand)]
+    Library(LibraryCommand),
+    /// Manage studies.
+    #[command(subcommand)]
+    Study(StudyCommand),
+    /// Write a study's export files into a folder.
+    Export(ExportArgs),
+    /// Manage admin accounts.
+    #[command(subcommand)]
+    Admin(AdminCommand),
+    /// Load benchmark against a real server on loopback.
+    Bench(bench::BenchArgs),
+}
+
+/// Database settings.
+#[derive(Debug, Clone, Args)]
+pub struct DbArgs {
+    /// `sqlite://PATH` (created if missing) or `postgres://USER:PASS@HOST/DB`.
+    #[arg(
+        long,
+        env = "PLATFORM_DATABASE_URL",
+        default_value = "sqlite://platform.db"
+    )]
+    pub database_url: String,
+    /// Connection pool size.
+    #[arg(long, env = "PLATFORM_MAX_CONNECTIONS", default_value_t = 16)]
+    pub max_connections: u32,
+}
+
+impl DbArgs {
+    /// Connects and migrates.
+    pub async fn connect(&self) -> Result<Db> {
+        if !(1..=1000).contains(&self.max_connections) {
+            return Err(AppError::BadRequest("--max-connections: 1..=1000".into()));
+        }
+        Db::connect(&self.database_url, self.max_connections).await
+    }
+}
+
+/// Server settings.
+#[derive(Debug, Clone, Args)]
+pub struct ServerArgs {
+    /// Database.
+    #[command(flatten)]
+    pub db: DbArgs,
+    /// Address to listen on (port 0 picks a free port; the address is printed).
+    #[arg(long, env = "PLATFORM_BIND", default_value = "127.0.0.1:8080")]
+    pub bind: SocketAddr,
+    /// Public base address used in links (default: http://BIND).
+    #[arg(long, env = "PLATFORM_PUBLIC_URL")]
+    pub public_url: Option<String>,
+    /// Mark the session cookie `Secure` (set this behind HTTPS).
+    #[arg(long, env = "PLATFORM_SECURE_COOKIES")]
+    pub secure_cookies: bool,
+    /// Largest accepted request body in bytes (uploads: 50 MB).
+    #[arg(long, env = "PLATFORM_MAX_BODY_BYTES", default_value_t = 64 * 1024)]
+    pub max_body_bytes: usize,
+}
+
+impl ServerArgs {
+    /// Binds, prints `listening on http://ADDR`, and returns the listener with its state.
+    pub async fn bind(&self, db: Db) -> Result<(tokio::net::TcpListener, AppState)> {
+        let listener = tokio::net::TcpListener::bind(self.bind)
+            .await
+            .map_err(|e| AppError::BadRequest(format!("cannot listen on {}: {e}", self.bind)))?;
+        let addr = listener.local_addr().map_err(AppError::internal)?;
+        let public = self
+            .public_url
+            .clone()
+            .unwrap_or_else(|| format!("http://{addr}"));
+        println!("listening on http://{addr}");
+        Ok((
+            listener,
+            AppState::new(db, public, self.secure_cookies, self.max_body_bytes),
+        ))
+    }
+}
+
+/// `platform demo`.
+#[derive(Debug, Clone, Args)]
+pub struct DemoArgs {
+    /// Server settings (the database defaults to `platform-demo.db` here).
+    #[command(flatten)]
+    pub server: ServerArgs,
+    /// Folder of the fixture clip art (with `labels.csv`).
+    #[arg(long, env = "PLATFORM_FIXTURES")]
+    pub fixtures: Option<PathBuf>,
+    /// Run this many simulated workers (20% spammers) so the dashboard has data.
+    #[arg(long, default_value_t = 0)]
+    pub simulate: u32,
+    /// Set everything up, print the links, and exit without serving.
+    #[arg(long)]
+    pub no_serve: bool,
+}
+
+/// `platform library ...`.
+#[derive(Debug, Subcommand)]
+pub enum LibraryCommand {
+    /// Import SVG/raster folders and Iconify JSON files.
+    Import {
+        /// Database.
+        #[command(flatten)]
+        db: DbArgs,
+        /// Library name.
+        #[arg(long, default_value = "default")]
+        name: String,
+        /// CSV with `file,style,keywords` columns (style labels feed automatic controls).
+        #[arg(long)]
+        labels: Option<PathBuf>,
+        /// Folders and files.
+        #[arg(required = true)]
+        paths: Vec<PathBuf>,
+    },
+}
+
+/// `platform study ...`.
+#[derive(Debug, Subcommand)]
+pub enum StudyCommand {
+    /// Create a study and its tuple pool.
+    Create {
+        /// Database.
+        #[command(flatten)]
+        db: DbArgs,
+        /// Study name.
+        #[arg(long)]
+        name: String,
+        /// Library name.
+        #[arg(long, default_value = "default")]
+        library: String,
+        /// JSON file with settings (missing fields: the paper's defaults); flags override it.
+        #[arg(long)]
+        settings: Option<PathBuf>,
+        /// Questions per HIT.
+        #[arg(long)]
+        questions_per_hit: Option<u32>,
+        /// Hidden controls per HIT.
+        #[arg(long)]
+        controls_per_hit: Option<u32>,
+        /// Main tuples.
+        #[arg(long)]
+        tuples: Option<u32>,
+        /// Replication R.
+        #[arg(long)]
+        replication: Option<u32>,
+        /// MTurk `sandbox` or `live`.
+        #[arg(long, value_parser = ["sandbox", "live"])]
+        mturk_mode: Option<String>,
+    },
+    /// Print a study's dashboard as JSON.
+    Status {
+        /// Database.
+        #[command(flatten)]
+        db: DbArgs,
+        /// Study id.
+        id: StudyId,
+    },
+}
+
+/// `platform export`.
+#[derive(Debug, Args)]
+pub struct ExportArgs {
+    /// Database.
+    #[command(flatten)]
+    pub db: DbArgs,
+    /// Study id.
+    pub id: StudyId,
+    /// Output folder.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Public base address for the ExternalQuestion.
+    #[arg(
+        long,
+        env = "PLATFORM_PUBLIC_URL",
+        default_value = "http://127.0.0.1:8080"
+    )]
+    pub public_url: String,
+    /// Include hidden-control answers.
+    #[arg(long)]
+    pub include_controls: bool,
+    /// Include rejected HITs.
+    #[arg(long)]
+    pub include_rejected: bool,
+    /// Include HITs not completed.
+    #[arg(long)]
+    pub include_incomplete: bool,
+}
+
+/// `platform admin ...`.
+#[derive(Debug, Subcommand)]
+pub enum AdminCommand {
+    /// Create an admin (or reset its password). The password comes from
+    /// `PLATFORM_ADMIN_PASSWORD` or is generated and printed once.
+    Create {
+        /// Database.
+        #[command(flatten)]
+        db: DbArgs,
+        /// Username.
+        #[arg(long, default_value = "admin")]
+        username: String,
+    },
+}
+
+/// Runs a parsed command.
+pub async fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Serve(args) => {
+            let db = args.db.connect().await?;
+            eprintln!("database: {}", redact(&args.db.database_url));
+            let (listener, state) = args.bind(db).await?;
+            crate::serve(listener, state)
+                .await
+                .map_err(AppError::internal)
+        }
+        Command::Demo(args) => demo::run(args).await,
+        Command::Library(LibraryCommand::Import {
+            db,
+            name,
+            labels,
+            paths,
+        }) => {
+            let db = db.connect().await?;
+            let report = library::import_paths(&db, &name, &paths, labels.as_deref()).await?;
+            println!(
+                "imported {} item(s) into '{name}' ({} already present, {} skipped)",
+                report.imported,
+                report.existing,
+                report.skipped.len()
+            );
+            for (location, why) in &report.skipped {
+                eprintln!("skipped {location}: {why}");
+            }
+            Ok(())
+        }
+        Command::Study(StudyCommand::Create {
+            db,
+            name,
+            library: lib,
+            settings,
+            questions_per_hit,
+            controls_per_hit,
+            tuples,
+            replication,
+            mturk_mode,
+        }) => {
+            let db = db.connect().await?;
+            let mut s: StudySettings = match settings {
+                Some(path) => {
+                    let text = std::fs::read_to_string(&path)
+                        .map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))?;
+                    serde_json::from_str(&text)
+                        .map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))?
+                }
+                None => StudySettings::default(),
+            };
+            if let Some(v) = questions_per_hit {
+                s.questions_per_hit = v;
+            }
+            if let Some(v) = controls_per_hit {
+                s.controls_per_hit = v;
+            }
+            if let Some(v) = tuples {
+                s.tuples = v;
+            }
+            if let Some(v) = replication {
+                s.replication = v;
+            }
+            if let Some(m) = mturk_mode {
+                s.mturk_mode = if m == "live" {
+                    MturkMode::Live
+                } else {
+                    MturkMode::Sandbox
+                };
+            }
+            let library = library::ensure_existing(&db, &lib).await?;
+            let (id, pool) = study::create(&db, &name, library, s).await?;
+            println!(
+                "study {id}: {} main tuples, {} slots, {} controls, {} training",
+                pool.main, pool.slots, pool.controls, pool.training
+            );
+            Ok(())
+        }
+        Command::Study(StudyCommand::Status { db, id }) => {
+            let db = db.connect().await?;
+            let s = study::load(&db, id).await?;
+            let (d, _) = dashboard::compute(&db, &s).await?;
+            println!(
+                "{}",
+                serde_json::to_string_pretty(&d).map_err(AppError::internal)?
+            );
+            Ok(())
+        }
+        Command::Export(args) => {
+            let db = args.db.connect().await?;
+            let s = study::load(&db, args.id).await?;
+            let opts = ExportOptions {
+                include_controls: args.include_controls,
+                include_rejected: args.include_rejected,
+                include_incomplete: args.include_incomplete,
+            };
+            let files = export::write_dir(&db, &s, opts, &args.public_url, &args.out).await?;
+            println!("wrote {} to {}", files.join(", "), args.out.display());
+            Ok(())
+        }
+        Command::Admin(AdminCommand::Create { db, username }) => {
+            let db = db.connect().await?;
+            let (password, generated) = match std::env::var("PLATFORM_ADMIN_PASSWORD") {
+                Ok(p) if !p.is_empty() => (p, false),
+                _ => (demo::generate_password(), true),
+            };
+            admin::create_admin(&db, &username, &password).await?;
+            if generated {
+                println!("admin '{username}' password (shown once): {password}");
+            } else {
+                println!("admin '{username}' created");
+            }
+            Ok(())
+        }
+        Command::Bench(args) => bench::run(args).await,
+    }
+}

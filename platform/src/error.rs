@@ -1,0 +1,100 @@
+//! The one error type of the platform. Handlers return `Result<_, AppError>`; the response shows
+//! a short public message and logs the internal cause to stderr, never to the client.
+
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use serde::Serialize;
+
+/// What went wrong while serving a request (or running a CLI command).
+#[derive(Debug, thiserror::Error)]
+pub enum AppError {
+    /// The request is malformed or a field is invalid; the message names the field.
+    #[error("{0}")]
+    BadRequest(String),
+    /// No such study, assignment, item…
+    #[error("{0} not found")]
+    NotFound(&'static str),
+    /// Not logged in (admin routes).
+    #[error("login required")]
+    Unauthorized,
+    /// Logged in but the request is not allowed (missing CSRF token, worker not eligible…).
+    #[error("{0}")]
+    Forbidden(String),
+    /// The request conflicts with stored state (e.g. a different answer to an answered question).
+    #[error("{0}")]
+    Conflict(String),
+    /// The body has the wrong content type.
+    #[error("{0}")]
+    UnsupportedMediaType(String),
+    /// The upload or body is too large.
+    #[error("{0}")]
+    TooLarge(String),
+    /// A database failure; details are logged, not shown.
+    #[error("database error: {0}")]
+    Database(#[from] sqlx::Error),
+    /// A migration failure.
+    #[error("migration error: {0}")]
+    Migrate(#[from] sqlx::migrate::MigrateError),
+    /// Anything else internal; details are logged, not shown.
+    #[error("internal error: {0}")]
+    Internal(String),
+}
+
+/// `Result` with [`AppError`].
+pub type Result<T, E = AppError> = std::result::Result<T, E>;
+
+impl AppError {
+    /// Wraps an internal failure (template, serialisation, image encoding…).
+    pub fn internal(e: impl std::fmt::Display) -> Self {
+        Self::Internal(e.to_string())
+    }
+
+    /// The HTTP status this error maps to.
+    pub fn status(&self) -> StatusCode {
+        match self {
+            Self::BadRequest(_) => StatusCode::BAD_REQUEST,
+            Self::NotFound(_) => StatusCode::NOT_FOUND,
+            Self::Unauthorized => StatusCode::UNAUTHORIZED,
+            Self::Forbidden(_) => StatusCode::FORBIDDEN,
+            Self::Conflict(_) => StatusCode::CONFLICT,
+            Self::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
+            Self::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            Self::Database(sqlx::Error::PoolTimedOut) => StatusCode::SERVICE_UNAVAILABLE,
+            Self::Database(_) | Self::Migrate(_) | Self::Internal(_) => {
+                StatusCode::INTERNAL_SERVER_ERROR
+            }
+        }
+    }
+
+    /// The message a client may see.
+    pub fn public_message(&self) -> String {
+        match self {
+            Self::Database(sqlx::Error::PoolTimedOut) => "server busy, retry".into(),
+            Self::Database(_) | Self::Migrate(_) | Self::Internal(_) => "internal error".into(),
+            other => other.to_string(),
+        }
+    }
+}
+
+/// The JSON body of every error response.
+#[derive(Debug, Serialize, utoipa::ToSchema)]
+pub struct ErrorBody {
+    /// Human-readable message.
+    pub error: String,
+}
+
+impl IntoResponse for AppError {
+    fn into_response(self) -> Response {
+        let status = self.status();
+        if status.is_server_error() {
+            eprintln!("error: {self}");
+        }
+        (
+            status,
+            axum::Json(ErrorBody {
+                error: self.public_message(),
+            }),
+        )
+            .into_response()
+    }
+}

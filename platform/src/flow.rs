@@ -1,0 +1,1230 @@
+//! The worker flow: start (MTurk / Prolific / direct, MTurk preview), training gate, HIT
+//! allocation (replicated slots claimed transactionally, hidden controls at random positions),
+//! durable idempotent answers, the reasons questionnaire, resume, completion and screen-out
+//! codes.
+//!
+//! Nothing a worker receives says whether a question is a control: controls and main questions
+//! have the same shape, and the expected answer is only read inside [`crate::qc`].
+
+use hmac::{Hmac, Mac};
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+use sha2::Sha256;
+use sqlx::Row;
+use utoipa::ToSchema;
+
+use crate::db::{Backend, Db, now_ms};
+use crate::error::{AppError, Result};
+use crate::ids::{AssignmentId, ItemId, StudyId, TupleId, WorkerId, random_token};
+use crate::qc;
+use crate::study::{self, MturkMode, Study};
+
+/// MTurk's assignment id while a worker only previews a HIT.
+pub const MTURK_PREVIEW: &str = "ASSIGNMENT_ID_NOT_AVAILABLE";
+/// Prolific's completion address.
+pub const PROLIFIC_COMPLETE: &str = "https://app.prolific.com/submissions/complete";
+
+/// Where a worker comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum Source {
+    /// Amazon Mechanical Turk ExternalQuestion.
+    Mturk,
+    /// Prolific.
+    Prolific,
+    /// A direct link (lab studies, pilots).
+    Direct,
+}
+
+impl Source {
+    fn as_str(self) -> &'static str {
+        match self {
+            Self::Mturk => "mturk",
+            Self::Prolific => "prolific",
+            Self::Direct => "direct",
+        }
+    }
+}
+
+/// Optional demographics asked at the start.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Demographics {
+    /// `female`, `male`, `other`, `undisclosed`.
+    pub gender: Option<String>,
+    /// `none`, `some`, `professional`.
+    pub art_experience: Option<String>,
+}
+
+impl Demographics {
+    fn validate(&self) -> Result<()> {
+        if let Some(g) = &self.gender
+            && !["female", "male", "other", "undisclosed", ""].contains(&g.as_str())
+        {
+            return Err(AppError::BadRequest(
+                "gender: one of female, male, other, undisclosed".into(),
+            ));
+        }
+        if let Some(a) = &self.art_experience
+            && !["none", "some", "professional", ""].contains(&a.as_str())
+        {
+            return Err(AppError::BadRequest(
+                "art_experience: one of none, some, professional".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Start parameters, as the crowd platform passes them (MTurk and Prolific names are accepted
+/// by the HTML start page and mapped onto these).
+#[derive(Debug, Clone, Default, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StartRequest {
+    /// `mturk`, `prolific` or `direct` (default: inferred from the other fields).
+    pub source: Option<Source>,
+    /// MTurk workerId, Prolific PROLIFIC_PID or a direct participant id.
+    pub worker_id: Option<String>,
+    /// MTurk assignmentId (`ASSIGNMENT_ID_NOT_AVAILABLE` in preview).
+    pub assignment_id: Option<String>,
+    /// MTurk hitId.
+    pub hit_id: Option<String>,
+    /// MTurk turkSubmitTo.
+    pub turk_submit_to: Option<String>,
+    /// Prolific STUDY_ID.
+    pub prolific_study_id: Option<String>,
+    /// Prolific SESSION_ID.
+    pub prolific_session_id: Option<String>,
+    /// Optional demographics.
+    pub demographics: Option<Demographics>,
+}
+
+/// What starting did.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum StartOutcome {
+    /// MTurk preview: nothing stored; show the task description.
+    Preview {
+        /// Study description.
+        description: String,
+        /// Whether this is the MTurk sandbox.
+        sandbox: bool,
+    },
+    /// An assignment exists (new or resumed): continue at `/api/v1/assignments/{token}`.
+    Started {
+        /// The assignment's bearer token (unguessable; keep it secret).
+        token: String,
+        /// Whether the worker already had this assignment.
+        resumed: bool,
+    },
+}
+
+fn valid_external(field: &str, value: &str) -> Result<()> {
+    if value.is_empty()
+        || value.len() > 128
+        || !value
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_.:@".contains(c))
+    {
+        return Err(AppError::BadRequest(format!(
+            "{field}: 1-128 characters of letters, digits and -_.:@"
+        )));
+    }
+    Ok(())
+}
+
+/// Parses and checks `turkSubmitTo` against the study's MTurk mode.
+fn check_submit_to(value: &str, mode: MturkMode) -> Result<bool> {
+    let v = value.trim_end_matches('/');
+    let sandbox = match v {
+        "https://workersandbox.mturk.com" => true,
+        "https://www.mturk.com" => false,
+        _ => {
+            return Err(AppError::BadRequest(
+                "turk_submit_to: not an MTurk submit address".into(),
+            ));
+        }
+    };
+    if sandbox != (mode == MturkMode::Sandbox) {
+        return Err(AppError::BadRequest(format!(
+            "this study runs on the MTurk {} site, but the HIT came from the {} site",
+            if mode == MturkMode::Sandbox {
+                "SANDBOX"
+            } else {
+                "LIVE"
+            },
+            if sandbox { "SANDBOX" } else { "LIVE" },
+        )));
+    }
+    Ok(sandbox)
+}
+
+/// Starts (or resumes) a worker's assignment.
+pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOutcome> {
+    let source = req
+        .source
+        .unwrap_or(if req.turk_submit_to.is_some() || req.hit_id.is_some() {
+            Source::Mturk
+        } else if req.prolific_session_id.is_some() {
+            Source::Prolific
+        } else {
+            Source::Direct
+        });
+    let sandbox = match source {
+        Source::Mturk => {
+            let submit = req
+                .turk_submit_to
+                .as_deref()
+                .ok_or_else(|| AppError::BadRequest("turk_submit_to: required for MTurk".into()))?;
+            let sandbox = check_submit_to(submit, study.settings.mturk_mode)?;
+            if req.assignment_id.as_deref() == Some(MTURK_PREVIEW) {
+                return Ok(StartOutcome::Preview {
+                    description: study.settings.description.clone(),
+                    sandbox,
+                });
+            }
+            valid_external(
+                "assignment_id",
+                req.assignment_id.as_deref().unwrap_or_default(),
+            )?;
+            valid_external("hit_id", req.hit_id.as_deref().unwrap_or_default())?;
+            sandbox
+        }
+        Source::Prolific => {
+            valid_external(
+                "prolific_study_id",
+                req.prolific_study_id.as_deref().unwrap_or_default(),
+            )?;
+            valid_external(
+                "prolific_session_id",
+                req.prolific_session_id.as_deref().unwrap_or_default(),
+            )?;
+            false
+        }
+        Source::Direct => false,
+    };
+    let external = req
+        .worker_id
+        .as_deref()
+        .ok_or_else(|| AppError::BadRequest("worker_id: required".into()))?;
+    valid_external("worker_id", external)?;
+    let demographics = req.demographics.unwrap_or_default();
+    demographics.validate()?;
+
+    if study.settings.blocked_workers.iter().any(|b| b == external) {
+        return Err(AppError::Forbidden(
+            "you are not eligible for this study".into(),
+        ));
+    }
+    let worker = ensure_worker(db, source, external).await?;
+    for earlier in &study.settings.exclude_workers_of {
+        let seen = sqlx::query("SELECT id FROM assignments WHERE study_id = $1 AND worker_id = $2")
+            .bind(earlier.0)
+            .bind(worker.0)
+            .fetch_optional(&db.pool)
+            .await?;
+        if seen.is_some() {
+            return Err(AppError::Forbidden(
+                "you are not eligible for this study (you took part in an earlier one)".into(),
+            ));
+        }
+    }
+    if let Some(token) = existing_token(db, study.id, worker).await? {
+        return Ok(StartOutcome::Started {
+            token,
+            resumed: true,
+        });
+    }
+    let id = AssignmentId::generate();
+    let token = random_token();
+    let inserted = sqlx::query(
+        "INSERT INTO assignments (id, token, study_id, worker_id, source, sandbox, \
+         external_assignment, hit_id, submit_to, prolific_study, prolific_session, demographics, \
+         status, training_attempts, started_at) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, 'training', 0, $13) \
+         ON CONFLICT DO NOTHING",
+    )
+    .bind(id.0)
+    .bind(&token)
+    .bind(study.id.0)
+    .bind(worker.0)
+    .bind(source.as_str())
+    .bind(i64::from(sandbox))
+    .bind(req.assignment_id)
+    .bind(req.hit_id)
+    .bind(
+        req.turk_submit_to
+            .map(|s| s.trim_end_matches('/').to_string()),
+    )
+    .bind(req.prolific_study_id)
+    .bind(req.prolific_session_id)
+    .bind(serde_json::to_string(&demographics).map_err(AppError::internal)?)
+    .bind(now_ms())
+    .execute(&db.writer)
+    .await?;
+    if inserted.rows_affected() == 0 {
+        // A concurrent start of the same worker won the race: resume theirs.
+        let token = existing_token(db, study.id, worker)
+            .await?
+            .ok_or(AppError::Internal("assignment vanished".into()))?;
+        return Ok(StartOutcome::Started {
+            token,
+            resumed: true,
+        });
+    }
+    if training_tuples(db, study.id).await?.is_empty() {
+        allocate(db, study, id, worker).await?;
+    }
+    Ok(StartOutcome::Started {
+        token,
+        resumed: false,
+    })
+}
+
+async fn ensure_worker(db: &Db, source: Source, external: &str) -> Result<WorkerId> {
+    sqlx::query(
+        "INSERT INTO workers (id, source, external_id, created_at) VALUES ($1, $2, $3, $4) \
+         ON CONFLICT DO NOTHING",
+    )
+    .bind(WorkerId::generate().0)
+    .bind(source.as_str())
+    .bind(external)
+    .bind(now_ms())
+    .execute(&db.writer)
+    .await?;
+    let row = sqlx::query("SELECT id FROM workers WHERE source = $1 AND external_id = $2")
+        .bind(source.as_str())
+        .bind(external)
+        .fetch_one(&db.pool)
+        .await?;
+    Ok(WorkerId(row.try_get("id")?))
+}
+
+async fn existing_token(db: &Db, study: StudyId, worker: WorkerId) -> Result<Option<String>> {
+    let row = sqlx::query("SELECT token FROM assignments WHERE study_id = $1 AND worker_id = $2")
+        .bind(study.0)
+        .bind(worker.0)
+        .fetch_optional(&db.pool)
+        .await?;
+    Ok(match row {
+        Some(r) => Some(r.try_get("token")?),
+        None => None,
+    })
+}
+
+/// An assignment as looked up by its token.
+#[derive(Debug, Clone)]
+pub struct Assignment {
+    /// Id.
+    pub id: AssignmentId,
+    /// Study.
+    pub study: StudyId,
+    /// Worker.
+    pub worker: WorkerId,
+    /// Source.
+    pub source: String,
+    /// MTurk sandbox.
+    pub sandbox: bool,
+    /// MTurk assignmentId.
+    pub external_assignment: Option<String>,
+    /// MTurk turkSubmitTo.
+    pub submit_to: Option<String>,
+    /// `training`, `active`, `completed`, `screened_out`.
+    pub status: String,
+    /// Failed training attempts so far.
+    pub training_attempts: i64,
+}
+
+/// Looks an assignment up by its bearer token.
+pub async fn by_token(db: &Db, token: &str) -> Result<Assignment> {
+    if token.len() != 32 || !token.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return Err(AppError::NotFound("assignment"));
+    }
+    let r = sqlx::query(
+        "SELECT id, study_id, worker_id, source, sandbox, external_assignment, submit_to, status, \
+         training_attempts FROM assignments WHERE token = $1",
+    )
+    .bind(token)
+    .fetch_optional(&db.pool)
+    .await?
+    .ok_or(AppError::NotFound("assignment"))?;
+    Ok(Assignment {
+        id: AssignmentId(r.try_get("id")?),
+        study: StudyId(r.try_get("study_id")?),
+        worker: WorkerId(r.try_get("worker_id")?),
+        source: r.try_get("source")?,
+        sandbox: r.try_get::<i64, _>("sandbox")? != 0,
+        external_assignment: r.try_get("external_assignment")?,
+        submit_to: r.try_get("submit_to")?,
+        status: r.try_get("status")?,
+        training_attempts: r.try_get("training_attempts")?,
+    })
+}
+
+/// An image shown to the worker.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct ItemRef {
+    /// Item id (the value to send back as `choice`).
+    pub id: ItemId,
+    /// Image address.
+    pub url: String,
+}
+
+impl ItemRef {
+    fn new(id: i64) -> Self {
+        Self {
+            id: ItemId(id),
+            url: format!("/media/items/{id}.png"),
+        }
+    }
+}
+
+/// One triplet as the worker sees it: "Is `reference` more similar in style to `left` or to
+/// `right`?"
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct QuestionView {
+    /// Position in the HIT (answers are keyed by it); for training, the index.
+    pub position: i64,
+    /// A.
+    pub reference: ItemRef,
+    /// B or C (display order is randomised per worker).
+    pub left: ItemRef,
+    /// C or B.
+    pub right: ItemRef,
+}
+
+fn mix(a: i64, b: i64) -> bool {
+    // A stable per-(assignment, tuple) coin so the display order survives reloads.
+    let x = (a as u64) ^ (b as u64).rotate_left(17);
+    let x = x.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    (x >> 63) == 1
+}
+
+fn view(position: i64, a: i64, b: i64, c: i64, swapped: bool) -> QuestionView {
+    let (left, right) = if swapped { (c, b) } else { (b, c) };
+    QuestionView {
+        position,
+        reference: ItemRef::new(a),
+        left: ItemRef::new(left),
+        right: ItemRef::new(right),
+    }
+}
+
+/// A training tuple (id, a, b, c); the expected answer is `b`.
+async fn training_tuples(db: &Db, study: StudyId) -> Result<Vec<(TupleId, i64, i64, i64)>> {
+    let rows = sqlx::query(
+        "SELECT id, a, b, c FROM tuples WHERE study_id = $1 AND kind = 'training' ORDER BY seq, id",
+    )
+    .bind(study.0)
+    .fetch_all(&db.pool)
+    .await?;
+    rows.iter()
+        .map(|r| {
+            Ok((
+                TupleId(r.try_get("id")?),
+                r.try_get("a")?,
+                r.try_get("b")?,
+                r.try_get("c")?,
+            ))
+        })
+        .collect()
+}
+
+/// The training questions of an assignment.
+pub async fn training_questions(db: &Db, a: &Assignment) -> Result<Vec<QuestionView>> {
+    Ok(training_tuples(db, a.study)
+        .await?
+        .into_iter()
+        .enumerate()
+        .map(|(i, (t, x, y, z))| view(i as i64, x, y, z, mix(a.id.0, t.0)))
+        .collect())
+}
+
+/// One training answer.
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TrainingAnswer {
+    /// The question's position.
+    pub position: i64,
+    /// The chosen item.
+    pub choice: ItemId,
+}
+
+/// Feedback on one training answer.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct TrainingFeedback {
+    /// The question's position.
+    pub position: i64,
+    /// Whether the answer was right.
+    pub correct: bool,
+    /// The right answer (training questions are not controls, so this may be shown).
+    pub expected: ItemId,
+}
+
+/// The result of a training attempt.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct TrainingResult {
+    /// All answers right: the HIT has started.
+    pub passed: bool,
+    /// Per-question feedback.
+    pub feedback: Vec<TrainingFeedback>,
+    /// Attempts used so far (including this one).
+    pub attempts: i64,
+    /// Attempts left before the worker is screened out.
+    pub attempts_left: i64,
+    /// The assignment's status after this attempt.
+    pub status: String,
+}
+
+/// Scores a training attempt; all right → the HIT is allocated; too many attempts → screened out.
+pub async fn submit_training(
+    db: &Db,
+    study: &Study,
+    a: &Assignment,
+    answers: &[TrainingAnswer],
+) -> Result<TrainingResult> {
+    if a.status != "training" {
+        return Err(AppError::Conflict(format!(
+            "training is over (assignment is {})",
+            a.status
+        )));
+    }
+    let tuples = training_tuples(db, a.study).await?;
+    if answers.len() != tuples.len() {
+        return Err(AppError::BadRequest(format!(
+            "expected {} training answers, got {}",
+            tuples.len(),
+            answers.len()
+        )));
+    }
+    let attempt = a.training_attempts + 1;
+    let mut feedback = Vec::with_capacity(tuples.len());
+    let mut tx = db.begin_write().await?;
+    // Claim the attempt number first: a concurrent duplicate submit finds it taken.
+    let bumped = sqlx::query(
+        "UPDATE assignments SET training_attempts = $1 WHERE id = $2 AND status = 'training' \
+         AND training_attempts = $3",
+    )
+    .bind(attempt)
+    .bind(a.id.0)
+    .bind(a.training_attempts)
+    .execute(&mut *tx)
+    .await?;
+    if bumped.rows_affected() == 0 {
+        return Err(AppError::Conflict(
+            "this training attempt was already submitted".into(),
+        ));
+    }
+    let now = now_ms();
+    for (i, (t, _, b, c)) in tuples.iter().enumerate() {
+        let answer = answers
+            .iter()
+            .find(|x| x.position == i as i64)
+            .ok_or_else(|| AppError::BadRequest(format!("no answer for training question {i}")))?;
+        if answer.choice.0 != *b && answer.choice.0 != *c {
+            return Err(AppError::BadRequest(format!(
+                "training question {i}: choice is not one of the two options"
+            )));
+        }
+        let correct = answer.choice.0 == *b;
+        sqlx::query(
+            "INSERT INTO training_answers (assignment_id, attempt, tuple_id, choice, correct, answered_at) \
+             VALUES ($1, $2, $3, $4, $5, $6)",
+        )
+        .bind(a.id.0)
+        .bind(attempt)
+        .bind(t.0)
+        .bind(if correct { "b" } else { "c" })
+        .bind(i64::from(correct))
+        .bind(now)
+        .execute(&mut *tx)
+        .await?;
+        feedback.push(TrainingFeedback {
+            position: i as i64,
+            correct,
+            expected: ItemId(*b),
+        });
+    }
+    let passed = feedback.iter().all(|f| f.correct);
+    let max = i64::from(study.settings.max_training_attempts);
+    let status = if passed {
+        "training"
+    } else if attempt >= max {
+        sqlx::query(
+            "UPDATE assignments SET status = 'screened_out', completed_at = $1 WHERE id = $2",
+        )
+        .bind(now)
+        .bind(a.id.0)
+        .execute(&mut *tx)
+        .await?;
+        "screened_out"
+    } else {
+        "training"
+    };
+    tx.commit().await?;
+    let status = if passed {
+        allocate(db, study, a.id, a.worker).await?;
+        "active"
+    } else {
+        status
+    };
+    Ok(TrainingResult {
+        passed,
+        feedback,
+        attempts: attempt,
+        attempts_left: (max - attempt).max(0),
+        status: status.into(),
+    })
+}
+
+/// A worker gives up the training: screened out (paid a screen-out, not rejected).
+pub async fn give_up(db: &Db, a: &Assignment) -> Result<()> {
+    let done = sqlx::query(
+        "UPDATE assignments SET status = 'screened_out', completed_at = $1 WHERE id = $2 \
+         AND status = 'training'",
+    )
+    .bind(now_ms())
+    .bind(a.id.0)
+    .execute(&db.writer)
+    .await?;
+    if done.rows_affected() == 0 && a.status != "screened_out" {
+        return Err(AppError::Conflict(format!(
+            "only a worker in training can give up (assignment is {})",
+            a.status
+        )));
+    }
+    Ok(())
+}
+
+/// Expires assignments that started more than `older_than_ms` ago and are still in training or
+/// answering: they become `abandoned` (further answers are refused) and the slots of their
+/// unanswered questions are freed for other workers. Answers already given are kept. Returns
+/// the number of expired assignments.
+pub async fn release_abandoned(db: &Db, study: StudyId, older_than_ms: i64) -> Result<usize> {
+    let cutoff = now_ms() - older_than_ms.max(0);
+    let rows = sqlx::query(
+        "SELECT id FROM assignments WHERE study_id = $1 AND status IN ('training', 'active') \
+         AND started_at <= $2",
+    )
+    .bind(study.0)
+    .bind(cutoff)
+    .fetch_all(&db.pool)
+    .await?;
+    let mut released = 0;
+    for r in rows {
+        let id: i64 = r.try_get("id")?;
+        let mut tx = db.begin_write().await?;
+        let moved = sqlx::query(
+            "UPDATE assignments SET status = 'abandoned', completed_at = $1 WHERE id = $2 \
+             AND status IN ('training', 'active')",
+        )
+        .bind(now_ms())
+        .bind(id)
+        .execute(&mut *tx)
+        .await?;
+        if moved.rows_affected() == 1 {
+            sqlx::query(
+                "UPDATE slots SET assignment_id = NULL, worker_id = NULL, claimed_at = NULL \
+                 WHERE assignment_id = $1 AND id IN \
+                 (SELECT slot_id FROM questions WHERE assignment_id = $1 AND choice IS NULL \
+                  AND slot_id IS NOT NULL)",
+            )
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
+            sqlx::query(
+                "UPDATE questions SET slot_id = NULL WHERE assignment_id = $1 AND choice IS NULL",
+            )
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
+            released += 1;
+        }
+        tx.commit().await?;
+    }
+    Ok(released)
+}
+
+/// Allocates the HIT: claims up to `questions - controls` free slots of distinct tuples the
+/// worker has never seen (one conditional `UPDATE` per slot: a slot is filled by exactly one
+/// assignment on both databases), adds the hidden controls, shuffles positions.
+pub async fn allocate(
+    db: &Db,
+    study: &Study,
+    assignment: AssignmentId,
+    worker: WorkerId,
+) -> Result<usize> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(rand::rng().random());
+    let s = &study.settings;
+    let controls_rows = sqlx::query(
+        "SELECT id FROM tuples WHERE study_id = $1 AND kind = 'control' ORDER BY seq, id",
+    )
+    .bind(study.id.0)
+    .fetch_all(&db.pool)
+    .await?;
+    let mut controls: Vec<i64> = controls_rows
+        .iter()
+        .map(|r| r.try_get("id"))
+        .collect::<Result<_, _>>()?;
+    controls.shuffle(&mut rng);
+    controls.truncate(s.controls_per_hit as usize);
+    let wanted = (s.questions_per_hit - s.controls_per_hit) as usize;
+
+    let mut tx = db.begin_write().await?;
+    let moved = sqlx::query(
+        "UPDATE assignments SET status = 'active' WHERE id = $1 AND status = 'training'",
+    )
+    .bind(assignment.0)
+    .execute(&mut *tx)
+    .await?;
+    if moved.rows_affected() == 0 {
+        // Already allocated by a concurrent request.
+        return Ok(0);
+    }
+    let now = now_ms();
+    // One claim per statement: the first free slot after the previously claimed tuple (in
+    // tuple order), so the claimed tuples are distinct without an anti-join (a worker has one
+    // assignment per study, so it holds no other slot of this study; the unique index on
+    // (tuple_id, worker_id) stays the hard guarantee). PostgreSQL locks only that row and skips
+    // rows other allocators are claiming, so concurrent allocations neither wait on nor
+    // deadlock with each other; the outer `assignment_id IS NULL` is the final guard against a
+    // double fill. On SQLite, `BEGIN IMMEDIATE` already serialises writers.
+    let sql = match db.backend {
+        Backend::Sqlite => {
+            "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
+             WHERE assignment_id IS NULL AND id = (SELECT s.id FROM slots s \
+               WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
+               ORDER BY s.seq, s.replica LIMIT 1) \
+             RETURNING id, tuple_id, seq"
+        }
+        Backend::Postgres => {
+            "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
+             WHERE assignment_id IS NULL AND id = (SELECT s.id FROM slots s \
+               WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
+               ORDER BY s.seq, s.replica LIMIT 1 FOR UPDATE OF s SKIP LOCKED) \
+             RETURNING id, tuple_id, seq"
+        }
+    };
+    // Start at a random tuple and wrap around once: concurrent allocators spread over the
+    // table instead of all scanning (and, on PostgreSQL, skipping) the same first free rows.
+    let mut claimed: Vec<(i64, i64)> = Vec::with_capacity(wanted);
+    let start = rng.random_range(-1..i64::from(s.tuples).max(0));
+    let (mut lower, mut upper) = (start, i64::MAX);
+    let (mut first_seq, mut wrapped) = (None, false);
+    while claimed.len() < wanted {
+        let row = sqlx::query(sql)
+            .bind(assignment.0)
+            .bind(worker.0)
+            .bind(now)
+            .bind(study.id.0)
+            .bind(lower)
+            .bind(upper)
+            .fetch_optional(&mut *tx)
+            .await?;
+        match row {
+            Some(r) => {
+                claimed.push((r.try_get("id")?, r.try_get("tuple_id")?));
+                lower = r.try_get("seq")?;
+                first_seq.get_or_insert(lower);
+            }
+            None if !wrapped => {
+                wrapped = true;
+                upper = first_seq.unwrap_or(start + 1);
+                lower = -1;
+            }
+            None => break,
+        }
+    }
+    if claimed.is_empty() {
+        tx.rollback().await?;
+        return Err(AppError::Conflict(
+            "this study has no more questions available".into(),
+        ));
+    }
+    let mut questions: Vec<(i64, Option<i64>)> =
+        claimed.iter().map(|&(s, t)| (t, Some(s))).collect();
+    questions.extend(controls.iter().map(|&t| (t, None)));
+    questions.shuffle(&mut rng);
+    for (position, (tuple, slot)) in questions.iter().enumerate() {
+        let ask = rng.random_bool(s.reasons_probability);
+        sqlx::query(
+            "INSERT INTO questions (assignment_id, position, tuple_id, slot_id, swapped, ask_reasons) \
+             VALUES ($1, $2, $3, $4, $5, $6)",
+        )
+        .bind(assignment.0)
+        .bind(position as i64)
+        .bind(*tuple)
+        .bind(*slot)
+        .bind(i64::from(rng.random_bool(0.5)))
+        .bind(i64::from(ask))
+        .execute(&mut *tx)
+        .await?;
+    }
+    tx.commit().await?;
+    Ok(questions.len())
+}
+
+/// An answer to one HIT question.
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AnswerRequest {
+    /// The question's position.
+    pub position: i64,
+    /// The chosen item (`left.id` or `right.id`).
+    pub choice: ItemId,
+    /// Milliseconds the worker spent on the question (client-measured, optional).
+    pub elapsed_ms: Option<i64>,
+}
+
+/// The server's acknowledgement: the answer is durably stored when this is sent.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct AnswerAck {
+    /// The same answer had been stored before (idempotent retry).
+    pub duplicate: bool,
+    /// Show the reasons questionnaire for this question now.
+    pub ask_reasons: bool,
+    /// All questions are answered.
+    pub completed: bool,
+    /// Next unanswered position, if any.
+    pub next_position: Option<i64>,
+}
+
+/// Stores an answer (idempotent: the same answer again is acknowledged as a duplicate; a
+/// different one is a conflict). Completes the assignment after its last answer.
+pub async fn answer(
+    db: &Db,
+    study: &Study,
+    a: &Assignment,
+    req: &AnswerRequest,
+) -> Result<AnswerAck> {
+    if a.status != "active" && a.status != "completed" {
+        return Err(AppError::Conflict(format!(
+            "the assignment is {}, not answering questions",
+            a.status
+        )));
+    }
+    if let Some(ms) = req.elapsed_ms
+        && !(0..=86_400_000).contains(&ms)
+    {
+        return Err(AppError::BadRequest("elapsed_ms: 0..=86400000".into()));
+    }
+    let row = sqlx::query(
+        "SELECT q.choice, q.ask_reasons, q.swapped, t.b, t.c FROM questions q \
+         JOIN tuples t ON t.id = q.tuple_id WHERE q.assignment_id = $1 AND q.position = $2",
+    )
+    .bind(a.id.0)
+    .bind(req.position)
+    .fetch_optional(&db.pool)
+    .await?
+    .ok_or(AppError::NotFound("question"))?;
+    let (b, c): (i64, i64) = (row.try_get("b")?, row.try_get("c")?);
+    let choice = if req.choice.0 == b {
+        "b"
+    } else if req.choice.0 == c {
+        "c"
+    } else {
+        return Err(AppError::BadRequest(
+            "choice: not one of the question's two options".into(),
+        ));
+    };
+    let ask_reasons = row.try_get::<i64, _>("ask_reasons")? != 0;
+    let previous: Option<String> = row.try_get("choice")?;
+    let duplicate = match previous {
+        Some(p) if p == choice => true,
+        Some(_) => {
+            return Err(AppError::Conflict(
+                "this question was already answered differently".into(),
+            ));
+        }
+        None => {
+            let stored = sqlx::query(
+                "UPDATE questions SET choice = $1, answered_at = $2, elapsed_ms = $3 \
+                 WHERE assignment_id = $4 AND position = $5 AND choice IS NULL",
+            )
+            .bind(choice)
+            .bind(now_ms())
+            .bind(req.elapsed_ms)
+            .bind(a.id.0)
+            .bind(req.position)
+            .execute(&db.writer)
+            .await?;
+            if stored.rows_affected() == 0 {
+                // A concurrent duplicate won: same answer → duplicate, else conflict.
+                let again = sqlx::query(
+                    "SELECT choice FROM questions WHERE assignment_id = $1 AND position = $2",
+                )
+                .bind(a.id.0)
+                .bind(req.position)
+                .fetch_one(&db.pool)
+                .await?;
+                let now: Option<String> = again.try_get("choice")?;
+                if now.as_deref() != Some(choice) {
+                    return Err(AppError::Conflict(
+                        "this question was already answered differently".into(),
+                    ));
+                }
+                true
+            } else {
+                false
+            }
+        }
+    };
+    let next = next_unanswered(db, a.id).await?;
+    let completed = next.is_none();
+    if completed && a.status == "active" {
+        complete(db, study, a.id).await?;
+    }
+    Ok(AnswerAck {
+        duplicate,
+        ask_reasons: ask_reasons && !duplicate,
+        completed,
+        next_position: next,
+    })
+}
+
+async fn next_unanswered(db: &Db, a: AssignmentId) -> Result<Option<i64>> {
+    let row = sqlx::query(
+        "SELECT MIN(position) AS p FROM questions WHERE assignment_id = $1 AND choice IS NULL",
+    )
+    .bind(a.0)
+    .fetch_one(&db.pool)
+    .await?;
+    Ok(row.try_get::<Option<i64>, _>("p")?)
+}
+
+/// Marks an assignment completed and applies the control rule (audited).
+async fn complete(db: &Db, study: &Study, a: AssignmentId) -> Result<()> {
+    let mut tx = db.begin_write().await?;
+    let done = sqlx::query(
+        "UPDATE assignments SET status = 'completed', completed_at = $1 WHERE id = $2 AND status = 'active'",
+    )
+    .bind(now_ms())
+    .bind(a.0)
+    .execute(&mut *tx)
+    .await?;
+    if done.rows_affected() == 1 {
+        let errors = qc::control_errors(&mut tx, a).await?;
+        let threshold = study.settings.reject_at_control_errors;
+        qc::record(
+            &mut tx,
+            a,
+            qc::verdict(errors, threshold),
+            &qc::rule_name(threshold),
+            "rule",
+            errors,
+        )
+        .await?;
+    }
+    tx.commit().await?;
+    Ok(())
+}
+
+/// The reasons a worker may give, grouped by attribute (Garces et al. 2016 §6.3.2).
+pub const REASONS: &[(&str, &str, &str)] = &[
+    ("colour", "colour_palette", "Similar colours"),
+    (
+        "colour",
+        "colour_saturation",
+        "Similar saturation / brightness",
+    ),
+    ("shading", "shading_flat", "Both flat / both shaded"),
+    (
+        "shading",
+        "shading_gradients",
+        "Similar gradients or highlights",
+    ),
+    ("texture", "texture", "Similar texture or pattern"),
+    ("stroke", "stroke_width", "Similar outline thickness"),
+    ("stroke", "stroke_presence", "Both have / lack outlines"),
+    (
+        "shape",
+        "shape_geometry",
+        "Similar shapes (round, angular…)",
+    ),
+    ("shape", "shape_detail", "Similar level of detail"),
+    ("other", "other", "Something else"),
+];
+
+/// Answers to the "why did you choose?" questionnaire.
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ReasonsRequest {
+    /// The question's position.
+    pub position: i64,
+    /// Reason codes (see the OpenAPI description; may be empty to skip).
+    pub reasons: Vec<String>,
+    /// Optional free text (at most 1000 characters).
+    pub text: Option<String>,
+}
+
+/// Stores the questionnaire of a question that asked for it (idempotent: first answer wins).
+pub async fn submit_reasons(db: &Db, a: &Assignment, req: &ReasonsRequest) -> Result<()> {
+    if req.reasons.len() > REASONS.len() {
+        return Err(AppError::BadRequest("reasons: too many".into()));
+    }
+    for r in &req.reasons {
+        if !REASONS.iter().any(|(_, code, _)| code == r) {
+            return Err(AppError::BadRequest(format!("reasons: unknown code {r:?}")));
+        }
+    }
+    let text = req.text.as_deref().map(str::trim).filter(|t| !t.is_empty());
+    if text.is_some_and(|t| t.chars().count() > 1000) {
+        return Err(AppError::BadRequest("text: at most 1000 characters".into()));
+    }
+    let row = sqlx::query(
+        "SELECT ask_reasons, choice FROM questions WHERE assignment_id = $1 AND position = $2",
+    )
+    .bind(a.id.0)
+    .bind(req.position)
+    .fetch_optional(&db.pool)
+    .await?
+    .ok_or(AppError::NotFound("question"))?;
+    if row.try_get::<i64, _>("ask_reasons")? == 0 {
+        return Err(AppError::BadRequest(
+            "this question has no questionnaire".into(),
+        ));
+    }
+    if row.try_get::<Option<String>, _>("choice")?.is_none() {
+        return Err(AppError::Conflict("answer the question first".into()));
+    }
+    sqlx::query(
+        "UPDATE questions SET reasons = $1, reason_text = $2 WHERE assignment_id = $3 \
+         AND position = $4 AND reasons IS NULL",
+    )
+    .bind(serde_json::to_string(&req.reasons).map_err(AppError::internal)?)
+    .bind(text)
+    .bind(a.id.0)
+    .bind(req.position)
+    .execute(&db.writer)
+    .await?;
+    Ok(())
+}
+
+/// How to hand the worker back to the crowd platform.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Handback {
+    /// POST a form to MTurk's externalSubmit with these fields.
+    MturkForm {
+        /// Form action.
+        action: String,
+        /// MTurk assignmentId.
+        assignment_id: String,
+        /// Our completion code (also sent as a field).
+        completion_code: String,
+    },
+    /// Redirect the browser.
+    Redirect {
+        /// Address.
+        url: String,
+    },
+    /// Show the code; nothing else to do.
+    Code,
+}
+
+/// Everything the worker client needs to continue: the single source of truth for resume.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct AssignmentState {
+    /// `training`, `active`, `completed`, `screened_out`.
+    pub status: String,
+    /// `mturk`, `prolific`, `direct`.
+    pub source: String,
+    /// MTurk sandbox (shown as a banner).
+    pub sandbox: bool,
+    /// Study description.
+    pub description: String,
+    /// Training questions (while in training).
+    pub training: Vec<QuestionView>,
+    /// Training attempts used.
+    pub training_attempts: i64,
+    /// Training attempts allowed.
+    pub max_training_attempts: i64,
+    /// A question whose questionnaire is pending.
+    pub reasons_for: Option<i64>,
+    /// The next question to answer.
+    pub question: Option<QuestionView>,
+    /// Images of the question after it (to preload).
+    pub preload: Vec<String>,
+    /// Answered questions.
+    pub answered: i64,
+    /// Questions in the HIT.
+    pub total: i64,
+    /// Completion code (when completed).
+    pub completion_code: Option<String>,
+    /// Screen-out code (when screened out).
+    pub screenout_code: Option<String>,
+    /// How to hand back (when completed or screened out).
+    pub handback: Option<Handback>,
+}
+
+/// The state of an assignment.
+pub async fn state(db: &Db, study: &Study, a: &Assignment) -> Result<AssignmentState> {
+    let mut st = AssignmentState {
+        status: a.status.clone(),
+        source: a.source.clone(),
+        sandbox: a.sandbox,
+        description: study.settings.description.clone(),
+        training: Vec::new(),
+        training_attempts: a.training_attempts,
+        max_training_attempts: i64::from(study.settings.max_training_attempts),
+        reasons_for: None,
+        question: None,
+        preload: Vec::new(),
+        answered: 0,
+        total: 0,
+        completion_code: None,
+        screenout_code: None,
+        handback: None,
+    };
+    match a.status.as_str() {
+        "training" => st.training = training_questions(db, a).await?,
+        "abandoned" => {}
+        "screened_out" => {
+            let code = code(&study.secret, "screenout", a.id);
+            st.handback = Some(handback(study, a, &code, true));
+            st.screenout_code = Some(code);
+        }
+        _ => {
+            let rows = sqlx::query(
+                "SELECT q.position, q.swapped, q.choice, q.ask_reasons, q.reasons, t.a, t.b, t.c \
+                 FROM questions q JOIN tuples t ON t.id = q.tuple_id WHERE q.assignment_id = $1 \
+                 ORDER BY q.position",
+            )
+            .bind(a.id.0)
+            .fetch_all(&db.pool)
+            .await?;
+            st.total = rows.len() as i64;
+            let mut upcoming = Vec::new();
+            for r in &rows {
+                let position: i64 = r.try_get("position")?;
+                let choice: Option<String> = r.try_get("choice")?;
+                if choice.is_some() {
+                    st.answered += 1;
+                    let pending = r.try_get::<i64, _>("ask_reasons")? != 0
+                        && r.try_get::<Option<String>, _>("reasons")?.is_none();
+                    if pending && st.reasons_for.is_none() {
+                        st.reasons_for = Some(position);
+                    }
+                } else if upcoming.len() < 2 {
+                    upcoming.push(view(
+                        position,
+                        r.try_get("a")?,
+                        r.try_get("b")?,
+                        r.try_get("c")?,
+                        r.try_get::<i64, _>("swapped")? != 0,
+                    ));
+                }
+            }
+            let mut upcoming = upcoming.into_iter();
+            st.question = upcoming.next();
+            if let Some(next) = upcoming.next() {
+                st.preload = vec![next.reference.url, next.left.url, next.right.url];
+            }
+            if a.status == "completed" {
+                let code = code(&study.secret, "complete", a.id);
+                st.handback = Some(handback(study, a, &code, false));
+                st.completion_code = Some(code);
+            }
+        }
+    }
+    Ok(st)
+}
+
+fn handback(study: &Study, a: &Assignment, code: &str, screened_out: bool) -> Handback {
+    match a.source.as_str() {
+        "mturk" => Handback::MturkForm {
+            action: format!(
+                "{}/mturk/externalSubmit",
+                a.submit_to
+                    .as_deref()
+                    .unwrap_or(study.settings.mturk_mode.submit_host())
+            ),
+            assignment_id: a.external_assignment.clone().unwrap_or_default(),
+            completion_code: code.to_string(),
+        },
+        "prolific" => {
+            let cc = if screened_out {
+                study.settings.prolific_screenout_code.as_deref()
+            } else {
+                study.settings.prolific_completion_code.as_deref()
+            };
+            match cc {
+                Some(cc) => Handback::Redirect {
+                    url: format!("{PROLIFIC_COMPLETE}?cc={cc}"),
+                },
+                None => Handback::Code,
+            }
+        }
+        _ => Handback::Code,
+    }
+}
+
+/// The unforgeable code of an assignment: HMAC-SHA256(study secret, `kind:assignment id`),
+/// 12 hex characters.
+pub fn code(secret: &str, kind: &str, a: AssignmentId) -> String {
+    let Ok(mut mac) = Hmac::<Sha256>::new_from_slice(secret.as_bytes()) else {
+        // HMAC accepts keys of any length; this branch cannot be taken.
+        return String::new();
+    };
+    mac.update(kind.as_bytes());
+    mac.update(b":");
+    mac.update(a.0.to_string().as_bytes());
+    let out = mac.finalize().into_bytes();
+    hex::encode_upper(&out[..6])
+}
+
+/// Finds the assignment a completion code belongs to (for requesters checking submissions).
+pub async fn verify_code(db: &Db, study: &Study, code_given: &str) -> Result<Option<AssignmentId>> {
+    let rows =
+        sqlx::query("SELECT id FROM assignments WHERE study_id = $1 AND status = 'completed'")
+            .bind(study.id.0)
+            .fetch_all(&db.pool)
+            .await?;
+    let given = code_given.trim().to_ascii_uppercase();
+    for r in rows {
+        let id = AssignmentId(r.try_get("id")?);
+        if code(&study.secret, "complete", id) == given {
+            return Ok(Some(id));
+        }
+    }
+    Ok(None)
+}
+
+/// Loads the study of an assignment.
+pub async fn study_of(db: &Db, a: &Assignment) -> Result<Study> {
+    study::load(db, a.study).await
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn codes_depend_on_secret_kind_and_assignment() {
+        let c = code("k", "complete", AssignmentId(7));
+        assert_eq!(c.len(), 12);
+        assert_eq!(c, code("k", "complete", AssignmentId(7)));
+        assert_ne!(c, code("k2", "complete", AssignmentId(7)));
+        assert_ne!(c, code("k", "screenout", AssignmentId(7)));
+        assert_ne!(c, code("k", "complete", AssignmentId(8)));
+    }
+
+    #[test]
+    fn submit_addresses_are_checked_against_the_mode() {
+        assert_eq!(
+            check_submit_to("https://workersandbox.mturk.com/", MturkMode::Sandbox).ok(),
+            Some(true)
+        );
+        assert!(check_submit_to("https://www.mturk.com", MturkMode::Sandbox).is_err());
+        assert!(check_submit_to("https://evil.example", MturkMode::Live).is_err());
+    }
+
+    #[test]
+    fn external_ids_are_restricted() {
+        assert!(valid_external("w", "A1B2C3").is_ok());
+        assert!(valid_external("w", "").is_err());
+        assert!(valid_external("w", "<script>").is_err());
+        assert!(valid_external("w", &"x".repeat(129)).is_err());
+    }
+}

@@ -1,0 +1,548 @@
+//! Studies: settings (the paper's defaults), creation of the tuple pool (uniform random main
+//! triplets with R slots each, automatic controls and training triplets from style groups) and
+//! curated controls.
+
+use std::collections::{BTreeMap, HashMap, HashSet};
+
+use rand::seq::{IndexedRandom, SliceRandom};
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+use sqlx::Row;
+
+use crate::db::{Db, now_ms};
+use crate::error::{AppError, Result};
+use crate::ids::{ItemId, LibraryId, SlotId, StudyId, TupleId, random_token};
+use crate::library::{self, ItemInfo};
+
+/// Which MTurk site a study's HITs live on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum MturkMode {
+    /// workersandbox.mturk.com: no money changes hands.
+    Sandbox,
+    /// www.mturk.com.
+    Live,
+}
+
+impl MturkMode {
+    /// Where the ExternalQuestion form posts to.
+    pub fn submit_host(self) -> &'static str {
+        match self {
+            Self::Sandbox => "https://workersandbox.mturk.com",
+            Self::Live => "https://www.mturk.com",
+        }
+    }
+}
+
+/// A study's settings. `Default` is the paper's set-up (Garces et al. 2014 §5.4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct StudySettings {
+    /// Text shown to workers before they start.
+    pub description: String,
+    /// Questions in one HIT, controls included (paper: 50).
+    pub questions_per_hit: u32,
+    /// Hidden control questions in one HIT (paper: 5).
+    pub controls_per_hit: u32,
+    /// Training triplets that must all be answered correctly first.
+    pub training_questions: u32,
+    /// Training attempts before the worker is screened out.
+    pub max_training_attempts: u32,
+    /// Main tuples to generate.
+    pub tuples: u32,
+    /// Distinct workers per main tuple (R; the paper's test set used 10).
+    pub replication: u32,
+    /// Probability of the "why did you choose?" questionnaire after a question (2016: 0.1).
+    pub reasons_probability: f64,
+    /// A HIT with at least this many control errors is rejected (paper: 2).
+    pub reject_at_control_errors: u32,
+    /// MTurk sandbox or live.
+    pub mturk_mode: MturkMode,
+    /// Prolific completion code (configured on Prolific) for the completion redirect.
+    pub prolific_completion_code: Option<String>,
+    /// Prolific screen-out code for workers who give up the training.
+    pub prolific_screenout_code: Option<String>,
+    /// Worker ids (MTurk/Prolific/direct) that may not take part.
+    pub blocked_workers: Vec<String>,
+    /// Workers who took part in these studies may not take part.
+    pub exclude_workers_of: Vec<StudyId>,
+    /// Seed of the tuple generation.
+    pub seed: u64,
+}
+
+impl Default for StudySettings {
+    fn default() -> Self {
+        Self {
+            description: "Compare the style of clip art.".into(),
+            questions_per_hit: 50,
+            controls_per_hit: 5,
+            training_questions: 3,
+            max_training_attempts: 5,
+            tuples: 1000,
+            replication: 1,
+            reasons_probability: 0.1,
+            reject_at_control_errors: 2,
+            mturk_mode: MturkMode::Sandbox,
+            prolific_completion_code: None,
+            prolific_screenout_code: None,
+            blocked_workers: Vec::new(),
+            exclude_workers_of: Vec::new(),
+            seed: 1,
+        }
+    }
+}
+
+impl StudySettings {
+    /// Checks every field; the message names the offending one.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(AppError::BadRequest(m));
+        if self.description.len() > 5000 {
+            return bad("description: at most 5000 characters".into());
+        }
+        if !(1..=500).contains(&self.questions_per_hit) {
+            return bad(format!(
+                "questions_per_hit: {} not in 1..=500",
+                self.questions_per_hit
+            ));
+        }
+        if self.controls_per_hit >= self.questions_per_hit {
+            return bad(format!(
+                "controls_per_hit: {} must be below questions_per_hit {}",
+                self.controls_per_hit, self.questions_per_hit
+            ));
+        }
+        if self.training_questions > 20 {
+            return bad(format!(
+                "training_questions: {} not in 0..=20",
+                self.training_questions
+            ));
+        }
+        if !(1..=100).contains(&self.max_training_attempts) {
+            return bad(format!(
+                "max_training_attempts: {} not in 1..=100",
+                self.max_training_attempts
+            ));
+        }
+        if !(1..=1_000_000).contains(&self.tuples) {
+            return bad(format!("tuples: {} not in 1..=1000000", self.tuples));
+        }
+        if !(1..=100).contains(&self.replication) {
+            return bad(format!("replication: {} not in 1..=100", self.replication));
+        }
+        if !(0.0..=1.0).contains(&self.reasons_probability) {
+            return bad(format!(
+                "reasons_probability: {} not in [0, 1]",
+                self.reasons_probability
+            ));
+        }
+        if self.reject_at_control_errors == 0 {
+            return bad("reject_at_control_errors: must be at least 1".into());
+        }
+        for code in [
+            &self.prolific_completion_code,
+            &self.prolific_screenout_code,
+        ]
+        .into_iter()
+        .flatten()
+        {
+            if code.is_empty()
+                || code.len() > 64
+                || !code.chars().all(|c| c.is_ascii_alphanumeric())
+            {
+                return bad("prolific codes: 1-64 ASCII letters and digits".into());
+            }
+        }
+        if self.blocked_workers.len() > 100_000 {
+            return bad("blocked_workers: at most 100000".into());
+        }
+        Ok(())
+    }
+}
+
+/// A stored study.
+#[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
+pub struct Study {
+    /// Id.
+    pub id: StudyId,
+    /// Name.
+    pub name: String,
+    /// The library its items come from.
+    pub library: LibraryId,
+    /// Settings.
+    pub settings: StudySettings,
+    /// HMAC key of completion codes (never serialised).
+    #[serde(skip)]
+    pub secret: String,
+    /// Creation time (Unix ms).
+    pub created_at: i64,
+}
+
+/// Loads a study.
+pub async fn load(db: &Db, id: StudyId) -> Result<Study> {
+    let row = sqlx::query(
+        "SELECT id, name, library_id, settings, secret, created_at FROM studies WHERE id = $1",
+    )
+    .bind(id.0)
+    .fetch_optional(&db.pool)
+    .await?
+    .ok_or(AppError::NotFound("study"))?;
+    let settings: String = row.try_get("settings")?;
+    Ok(Study {
+        id: StudyId(row.try_get("id")?),
+        name: row.try_get("name")?,
+        library: LibraryId(row.try_get("library_id")?),
+        settings: serde_json::from_str(&settings).map_err(AppError::internal)?,
+        secret: row.try_get("secret")?,
+        created_at: row.try_get("created_at")?,
+    })
+}
+
+/// All studies, newest first.
+pub async fn list(db: &Db) -> Result<Vec<Study>> {
+    let rows = sqlx::query("SELECT id FROM studies ORDER BY created_at DESC")
+        .fetch_all(&db.pool)
+        .await?;
+    let mut out = Vec::with_capacity(rows.len());
+    for r in rows {
+        out.push(load(db, StudyId(r.try_get("id")?)).await?);
+    }
+    Ok(out)
+}
+
+/// What tuple generation produced.
+#[derive(Debug, Clone, Default, Serialize, utoipa::ToSchema)]
+pub struct PoolSummary {
+    /// Main tuples.
+    pub main: usize,
+    /// Slots (main tuples × R).
+    pub slots: usize,
+    /// Automatic control tuples.
+    pub controls: usize,
+    /// Training tuples.
+    pub training: usize,
+}
+
+/// A tuple to insert.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NewTuple {
+    /// Reference.
+    pub a: ItemId,
+    /// First candidate (the expected answer of controls and training).
+    pub b: ItemId,
+    /// Second candidate.
+    pub c: ItemId,
+}
+
+/// Uniform random triplets over `items`: three distinct items, no triplet twice (B and C
+/// unordered). Returns fewer than `count` only when the library has fewer distinct triplets.
+pub fn random_triplets(items: &[ItemId], count: usize, rng: &mut impl Rng) -> Vec<NewTuple> {
+    let n = items.len();
+    if n < 3 {
+        return Vec::new();
+    }
+    let distinct = n as u128 * (n as u128 - 1) * (n as u128 - 2) / 2;
+    let count = (count as u128).min(distinct) as usize;
+    let mut seen = HashSet::with_capacity(count);
+    let mut out = Vec::with_capacity(count);
+    while out.len() < count {
+        let a = rng.random_range(0..n);
+        let b = rng.random_range(0..n);
+        let c = rng.random_range(0..n);
+        if a == b || a == c || b == c {
+            continue;
+        }
+        if seen.insert((a, b.min(c), b.max(c))) {
+            out.push(NewTuple {
+                a: items[a],
+                b: items[b],
+                c: items[c],
+            });
+        }
+    }
+    out
+}
+
+/// Triplets with a known answer from style groups: A and B from one group, C from one of the
+/// groups farthest from it (mean feature vectors, the farther half). Empty when fewer than two
+/// groups have items (at least two in A's group).
+pub fn style_triplets(
+    items: &[ItemInfo],
+    features: &HashMap<ItemId, Vec<f64>>,
+    count: usize,
+    rng: &mut impl Rng,
+) -> Vec<NewTuple> {
+    let mut groups: BTreeMap<&str, Vec<ItemId>> = BTreeMap::new();
+    for item in items {
+        if let Some(style) = &item.style {
+            groups.entry(style.as_str()).or_default().push(item.id);
+        }
+    }
+    let names: Vec<&str> = groups.keys().copied().collect();
+    if names.len() < 2 || !groups.values().any(|g| g.len() >= 2) {
+        return Vec::new();
+    }
+    let centroid = |g: &[ItemId]| -> Vec<f64> {
+        let dim = g.iter().find_map(|i| features.get(i)).map_or(0, Vec::len);
+        let mut sum = vec![0.0; dim];
+        for f in g.iter().filter_map(|i| features.get(i)) {
+            for (s, v) in sum.iter_mut().zip(f) {
+                *s += v;
+            }
+        }
+        sum.iter().map(|s| s / g.len().max(1) as f64).collect()
+    };
+    let centroids: Vec<Vec<f64>> = names.iter().map(|n| centroid(&groups[n])).collect();
+    // For each group, the other groups sorted by decreasing distance; keep the farther half.
+    let far: Vec<Vec<usize>> = (0..names.len())
+        .map(|g| {
+            let mut others: Vec<(f64, usize)> = (0..names.len())
+                .filter(|&o| o != g)
+                .map(|o| {
+                    let d: f64 = centroids[g]
+                        .iter()
+                        .zip(&centroids[o])
+                        .map(|(x, y)| (x - y) * (x - y))
+                        .sum();
+                    (d, o)
+                })
+                .collect();
+            others.sort_by(|x, y| y.0.total_cmp(&x.0));
+            let keep = others.len().div_ceil(2);
+            others.into_iter().take(keep).map(|(_, o)| o).collect()
+        })
+        .collect();
+    let eligible: Vec<usize> = (0..names.len())
+        .filter(|&g| groups[names[g]].len() >= 2)
+        .collect();
+    let mut seen = HashSet::new();
+    let mut out = Vec::with_capacity(count);
+    let mut attempts = 0;
+    while out.len() < count && attempts < count * 50 {
+        attempts += 1;
+        let Some(&g) = eligible.choose(rng) else {
+            break;
+        };
+        let members = &groups[names[g]];
+        let pair: Vec<ItemId> = members.choose_multiple(rng, 2).copied().collect();
+        let Some(&o) = far[g].choose(rng) else { break };
+        let Some(&c) = groups[names[o]].choose(rng) else {
+            continue;
+        };
+        let t = NewTuple {
+            a: pair[0],
+            b: pair[1],
+            c,
+        };
+        if seen.insert((t.a, t.b, t.c)) {
+            out.push(t);
+        }
+    }
+    out
+}
+
+/// Creates a study over `library` and generates its tuple pool.
+pub async fn create(
+    db: &Db,
+    name: &str,
+    library: LibraryId,
+    settings: StudySettings,
+) -> Result<(StudyId, PoolSummary)> {
+    settings.validate()?;
+    let name = name.trim();
+    if name.is_empty() || name.len() > 200 {
+        return Err(AppError::BadRequest("name: 1-200 characters".into()));
+    }
+    let items = library::list_items(db, library).await?;
+    if items.len() < 3 {
+        return Err(AppError::BadRequest(format!(
+            "the library has {} items; a study needs at least 3",
+            items.len()
+        )));
+    }
+    let features = library::item_features(db, library).await?;
+    let ids: Vec<ItemId> = items.iter().map(|i| i.id).collect();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(settings.seed);
+    let main = random_triplets(&ids, settings.tuples as usize, &mut rng);
+    let control_count = (settings.controls_per_hit as usize * 20).max(50);
+    let mut labelled = style_triplets(
+        &items,
+        &features,
+        control_count + settings.training_questions as usize,
+        &mut rng,
+    );
+    labelled.shuffle(&mut rng);
+    let training: Vec<NewTuple> = labelled
+        .iter()
+        .take(settings.training_questions as usize)
+        .copied()
+        .collect();
+    let controls: Vec<NewTuple> = labelled
+        .iter()
+        .skip(settings.training_questions as usize)
+        .copied()
+        .collect();
+
+    let id = StudyId::generate();
+    let mut tx = db.begin_write().await?;
+    sqlx::query(
+        "INSERT INTO studies (id, name, library_id, settings, secret, created_at) \
+         VALUES ($1, $2, $3, $4, $5, $6)",
+    )
+    .bind(id.0)
+    .bind(name)
+    .bind(library.0)
+    .bind(serde_json::to_string(&settings).map_err(AppError::internal)?)
+    .bind(format!("{}{}", random_token(), random_token()))
+    .bind(now_ms())
+    .execute(&mut *tx)
+    .await?;
+    let mut summary = PoolSummary::default();
+    for (kind, tuples) in [
+        ("main", &main),
+        ("control", &controls),
+        ("training", &training),
+    ] {
+        for (seq, t) in tuples.iter().enumerate() {
+            let tuple = TupleId::generate();
+            let expected = (kind != "main").then_some("b");
+            sqlx::query(
+                "INSERT INTO tuples (id, study_id, seq, kind, a, b, c, expected, origin) \
+                 VALUES ($1, $2, $3, $4, $5, $6, $7, $8, 'auto')",
+            )
+            .bind(tuple.0)
+            .bind(id.0)
+            .bind(seq as i64)
+            .bind(kind)
+            .bind(t.a.0)
+            .bind(t.b.0)
+            .bind(t.c.0)
+            .bind(expected)
+            .execute(&mut *tx)
+            .await?;
+            if kind == "main" {
+                for replica in 0..settings.replication {
+                    sqlx::query(
+                        "INSERT INTO slots (id, study_id, tuple_id, seq, replica) \
+                         VALUES ($1, $2, $3, $4, $5)",
+                    )
+                    .bind(SlotId::generate().0)
+                    .bind(id.0)
+                    .bind(tuple.0)
+                    .bind(seq as i64)
+                    .bind(i64::from(replica))
+                    .execute(&mut *tx)
+                    .await?;
+                    summary.slots += 1;
+                }
+            }
+        }
+    }
+    tx.commit().await?;
+    summary.main = main.len();
+    summary.controls = controls.len();
+    summary.training = training.len();
+    Ok((id, summary))
+}
+
+/// Adds a curated control (or training) triplet given by item names; `b` is the expected answer.
+pub async fn add_curated(db: &Db, study: &Study, kind: &str, names: [&str; 3]) -> Result<TupleId> {
+    if kind != "control" && kind != "training" {
+        return Err(AppError::BadRequest(
+            "kind must be 'control' or 'training'".into(),
+        ));
+    }
+    let mut ids = Vec::new();
+    for name in names {
+        let row = sqlx::query("SELECT id FROM items WHERE library_id = $1 AND name = $2")
+            .bind(study.library.0)
+            .bind(name)
+            .fetch_optional(&db.pool)
+            .await?
+            .ok_or_else(|| {
+                AppError::BadRequest(format!("no item named {name:?} in the library"))
+            })?;
+        ids.push(row.try_get::<i64, _>("id")?);
+    }
+    if ids[0] == ids[1] || ids[0] == ids[2] || ids[1] == ids[2] {
+        return Err(AppError::BadRequest("a, b and c must be distinct".into()));
+    }
+    let seq_row = sqlx::query(
+        "SELECT CAST(COALESCE(MAX(seq), -1) AS BIGINT) AS m FROM tuples WHERE study_id = $1 AND kind = $2",
+    )
+    .bind(study.id.0)
+    .bind(kind)
+    .fetch_one(&db.pool)
+    .await?;
+    let seq: i64 = seq_row.try_get("m")?;
+    let id = TupleId::generate();
+    sqlx::query(
+        "INSERT INTO tuples (id, study_id, seq, kind, a, b, c, expected, origin) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7, 'b', 'curated')",
+    )
+    .bind(id.0)
+    .bind(study.id.0)
+    .bind(seq + 1)
+    .bind(kind)
+    .bind(ids[0])
+    .bind(ids[1])
+    .bind(ids[2])
+    .execute(&db.writer)
+    .await?;
+    Ok(id)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn random_triplets_are_distinct_and_capped() {
+        let items: Vec<ItemId> = (1..=4).map(ItemId).collect();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let t = random_triplets(&items, 1000, &mut rng);
+        // 4 * 3 * 2 / 2 = 12 distinct triplets with B, C unordered.
+        assert_eq!(t.len(), 12);
+        for x in &t {
+            assert!(x.a != x.b && x.a != x.c && x.b != x.c);
+        }
+        assert!(random_triplets(&items[..2], 5, &mut rng).is_empty());
+    }
+
+    #[test]
+    fn style_triplets_pair_a_with_b_from_one_group() {
+        let items: Vec<ItemInfo> = (1..=8)
+            .map(|i| ItemInfo {
+                id: ItemId(i),
+                name: format!("i{i}"),
+                style: Some(if i <= 4 { "x" } else { "y" }.into()),
+            })
+            .collect();
+        let style: HashMap<ItemId, &str> = items
+            .iter()
+            .map(|i| (i.id, i.style.as_deref().unwrap_or("")))
+            .collect();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let t = style_triplets(&items, &HashMap::new(), 20, &mut rng);
+        assert_eq!(t.len(), 20);
+        for x in t {
+            assert_eq!(style[&x.a], style[&x.b]);
+            assert_ne!(style[&x.a], style[&x.c]);
+            assert_ne!(x.a, x.b);
+        }
+    }
+
+    #[test]
+    fn settings_are_validated() {
+        assert!(StudySettings::default().validate().is_ok());
+        let bad = StudySettings {
+            controls_per_hit: 50,
+            ..StudySettings::default()
+        };
+        assert!(bad.validate().is_err());
+        let bad = StudySettings {
+            reasons_probability: 1.5,
+            ..StudySettings::default()
+        };
+        assert!(bad.validate().is_err());
+    }
+}

@@ -1,0 +1,387 @@
+//! The complete worker flow and the admin flow in real Chromium (Debian's chromium and
+//! chromium-driver over WebDriver). Screenshots are kept under `target/e2e-artifacts/`.
+
+use std::collections::HashMap;
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+use e2e::platform::*;
+use e2e::workspace_root;
+use fantoccini::{Client, ClientBuilder, Locator};
+use serde_json::json;
+
+struct Driver(Child);
+
+impl Drop for Driver {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("free port")
+}
+
+fn tool(name: &str) -> Option<PathBuf> {
+    ["/usr/bin", "/usr/local/bin"]
+        .iter()
+        .map(|d| Path::new(d).join(name))
+        .find(|p| p.exists())
+}
+
+async fn browser(profile: &Path) -> Option<(Driver, Client)> {
+    let (Some(chromium), Some(chromedriver)) = (tool("chromium"), tool("chromedriver")) else {
+        if std::env::var("CI").is_ok_and(|v| v == "true" || v == "1") {
+            panic!("chromium and chromedriver are required in CI (scripts/test installs them)");
+        }
+        eprintln!("chromium/chromedriver not installed: skipping the browser test");
+        return None;
+    };
+    let port = free_port();
+    let driver = Driver(
+        Command::new(chromedriver)
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start chromedriver"),
+    );
+    let caps = json!({
+        "goog:chromeOptions": {
+            "binary": chromium,
+            "args": [
+                "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                "--window-size=1100,1000", format!("--user-data-dir={}", profile.display()),
+            ]
+        }
+    });
+    let caps: fantoccini::wd::Capabilities = caps.as_object().expect("object").clone();
+    let connector = hyper_util::client::legacy::connect::HttpConnector::new();
+    for _ in 0..100 {
+        match ClientBuilder::new(connector.clone())
+            .capabilities(caps.clone())
+            .connect(&format!("http://127.0.0.1:{port}"))
+            .await
+        {
+            Ok(c) => return Some((driver, c)),
+            Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
+        }
+    }
+    panic!("could not open a WebDriver session");
+}
+
+async fn shot(c: &Client, dir: &Path, name: &str) {
+    let png = c.screenshot().await.expect("screenshot");
+    std::fs::write(dir.join(name), png).expect("write screenshot");
+}
+
+fn id_from_src(src: &str) -> i64 {
+    src.rsplit('/')
+        .next()
+        .and_then(|f| f.strip_suffix(".png"))
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("image src {src}"))
+}
+
+async fn attr(c: &Client, css: &str, name: &str) -> String {
+    c.find(Locator::Css(css))
+        .await
+        .unwrap_or_else(|e| panic!("{css}: {e}"))
+        .attr(name)
+        .await
+        .expect("attr")
+        .unwrap_or_default()
+}
+
+fn honest(reference: i64, left: i64, right: i64, styles: &HashMap<i64, String>) -> i64 {
+    let q = json!({"reference": {"id": reference}, "left": {"id": left}, "right": {"id": right}});
+    choose(&q, styles, Behaviour::Honest)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn worker_and_admin_flows_in_chromium() {
+    let profile = tempfile::tempdir().expect("profile dir");
+    let Some((_driver, c)) = browser(profile.path()).await else {
+        return;
+    };
+    let artifacts = workspace_root().join("target/e2e-artifacts/platform-browser");
+    std::fs::create_dir_all(&artifacts).expect("artifacts dir");
+    let db = sqlite_db();
+    let study = setup_study(
+        &db,
+        &StudyOpts {
+            questions: 6,
+            controls: 1,
+            extra: json!({"reasons_probability": 0.5}),
+            ..StudyOpts::default()
+        },
+    );
+    let server = Server::start(&db.url);
+    let styles = item_styles(&db.url).await;
+
+    // Start page with optional demographics.
+    c.goto(&server.url(&format!("/s/{study}?participant=browser-1")))
+        .await
+        .expect("start page");
+    shot(&c, &artifacts, "01-start.png").await;
+    c.find(Locator::Css("select[name=art_experience]"))
+        .await
+        .expect("select")
+        .select_by_value("some")
+        .await
+        .expect("choose");
+    mark(&c).await;
+    c.find(Locator::Id("start"))
+        .await
+        .expect("start")
+        .click()
+        .await
+        .expect("click");
+    wait_navigated(&c).await;
+
+    // Training: a wrong attempt shows feedback, then the right answers pass the gate.
+    for attempt in 0..2 {
+        c.wait()
+            .for_element(Locator::Id("training-form"))
+            .await
+            .expect("training page");
+        let questions = c
+            .find_all(Locator::Css(".training-q"))
+            .await
+            .expect("questions");
+        for q in &questions {
+            let imgs = q.find_all(Locator::Css("img")).await.expect("imgs");
+            let reference =
+                id_from_src(&imgs[0].attr("src").await.expect("src").unwrap_or_default());
+            let radios = q
+                .find_all(Locator::Css("input[type=radio]"))
+                .await
+                .expect("radios");
+            let l: i64 = radios[0]
+                .attr("value")
+                .await
+                .expect("v")
+                .unwrap_or_default()
+                .parse()
+                .expect("id");
+            let r: i64 = radios[1]
+                .attr("value")
+                .await
+                .expect("v")
+                .unwrap_or_default()
+                .parse()
+                .expect("id");
+            let right = honest(reference, l, r, &styles);
+            let pick = if attempt == 0 {
+                if right == l { 1 } else { 0 }
+            } else if right == l {
+                0
+            } else {
+                1
+            };
+            radios[pick].click().await.expect("radio");
+        }
+        if attempt == 0 {
+            shot(&c, &artifacts, "02-training.png").await;
+        }
+        mark(&c).await;
+        c.find(Locator::Id("submit-training"))
+            .await
+            .expect("submit")
+            .click()
+            .await
+            .expect("click");
+        wait_navigated(&c).await;
+        if attempt == 0 {
+            c.wait()
+                .for_element(Locator::Id("training-feedback"))
+                .await
+                .expect("feedback");
+            shot(&c, &artifacts, "03-training-feedback.png").await;
+        }
+    }
+
+    // Questions: by click and by keyboard; the questionnaire when it appears.
+    let mut n = 0;
+    let mut saw_reasons = false;
+    loop {
+        c.wait()
+            .for_element(Locator::Css("h1, #progress"))
+            .await
+            .expect("page");
+        if c.find(Locator::Id("answer-form")).await.is_ok() {
+            let reference = id_from_src(&attr(&c, ".reference img", "src").await);
+            let l: i64 = attr(&c, "#left", "value").await.parse().expect("left id");
+            let r: i64 = attr(&c, "#right", "value").await.parse().expect("right id");
+            let pick = honest(reference, l, r, &styles);
+            if n == 0 {
+                shot(&c, &artifacts, "04-question.png").await;
+            }
+            mark(&c).await;
+            if n % 2 == 0 {
+                let id = if pick == l { "left" } else { "right" };
+                c.find(Locator::Id(id))
+                    .await
+                    .expect("option")
+                    .click()
+                    .await
+                    .expect("click");
+            } else {
+                let key = if pick == l { "1" } else { "2" };
+                c.find(Locator::Css("body"))
+                    .await
+                    .expect("body")
+                    .send_keys(key)
+                    .await
+                    .expect("key");
+            }
+            n += 1;
+            wait_navigated(&c).await;
+        } else if c.find(Locator::Id("reasons-form")).await.is_ok() {
+            if !saw_reasons {
+                shot(&c, &artifacts, "05-reasons.png").await;
+            }
+            saw_reasons = true;
+            c.find(Locator::Css("input[value=shading_flat]"))
+                .await
+                .expect("box")
+                .click()
+                .await
+                .expect("click");
+            c.find(Locator::Css("input[name=text]"))
+                .await
+                .expect("text")
+                .send_keys("flat colours")
+                .await
+                .expect("type");
+            mark(&c).await;
+            c.find(Locator::Id("send-reasons"))
+                .await
+                .expect("send")
+                .click()
+                .await
+                .expect("click");
+            wait_navigated(&c).await;
+        } else if c.find(Locator::Id("code")).await.is_ok() {
+            break;
+        } else {
+            panic!("unexpected page: {}", c.source().await.unwrap_or_default());
+        }
+        assert!(n <= 6, "more questions than the HIT has");
+    }
+    assert_eq!(n, 6);
+    let code = c
+        .find(Locator::Id("code"))
+        .await
+        .expect("code")
+        .text()
+        .await
+        .expect("text");
+    assert_eq!(code.len(), 12, "completion code {code:?}");
+    shot(&c, &artifacts, "06-done.png").await;
+    // Reload: still done, same code (resume).
+    c.refresh().await.expect("reload");
+    let again = c
+        .find(Locator::Id("code"))
+        .await
+        .expect("code")
+        .text()
+        .await
+        .expect("text");
+    assert_eq!(again, code);
+
+    // Admin: login, study list, dashboard with this worker.
+    c.goto(&server.url("/admin/login"))
+        .await
+        .expect("login page");
+    c.find(Locator::Id("username"))
+        .await
+        .expect("user")
+        .send_keys("admin")
+        .await
+        .expect("type");
+    c.find(Locator::Id("password"))
+        .await
+        .expect("pass")
+        .send_keys(ADMIN_PASSWORD)
+        .await
+        .expect("type");
+    c.find(Locator::Id("login"))
+        .await
+        .expect("login")
+        .click()
+        .await
+        .expect("click");
+    c.wait()
+        .for_element(Locator::Id("studies"))
+        .await
+        .expect("studies");
+    shot(&c, &artifacts, "07-admin-studies.png").await;
+    c.find(Locator::Css("#studies a"))
+        .await
+        .expect("study link")
+        .click()
+        .await
+        .expect("click");
+    c.wait()
+        .for_element(Locator::Id("workers"))
+        .await
+        .expect("dashboard");
+    let table = c
+        .find(Locator::Id("workers"))
+        .await
+        .expect("workers")
+        .text()
+        .await
+        .expect("text");
+    assert!(
+        table.contains("completed") && table.contains("approved"),
+        "{table}"
+    );
+    c.find(Locator::Id("qc-dry"))
+        .await
+        .expect("dry run")
+        .click()
+        .await
+        .expect("click");
+    c.wait()
+        .for_element(Locator::Id("qc-result"))
+        .await
+        .expect("qc result");
+    shot(&c, &artifacts, "08-admin-dashboard.png").await;
+    let _ = saw_reasons;
+    c.close().await.expect("close");
+}
+
+/// Marks the current document; [`wait_navigated`] waits until a new one has loaded.
+async fn mark(c: &Client) {
+    c.execute("window.__old = true; return null;", vec![])
+        .await
+        .expect("mark");
+}
+
+async fn wait_navigated(c: &Client) {
+    for _ in 0..200 {
+        let done = c
+            .execute(
+                "return window.__old === undefined && document.readyState === 'complete';",
+                vec![],
+            )
+            .await
+            .ok()
+            .and_then(|v| v.as_bool())
+            .unwrap_or(false);
+        if done {
+            return;
+        }
+        tokio::time::sleep(Duration::from_millis(25)).await;
+    }
+    panic!("the page did not change");
+}
