@@ -25,6 +25,7 @@ use crate::flow::{
 use crate::ids::{AssignmentId, LibraryId, StudyId};
 use crate::qc::{self, DecisionRecord, RuleOutcome};
 use crate::study::{self, MturkMode, PoolSummary, StudySettings};
+use crate::train::{self, ModelSummary, TrainOptions};
 
 /// The OpenAPI document.
 #[derive(OpenApi)]
@@ -50,7 +51,9 @@ use crate::study::{self, MturkMode, PoolSummary, StudySettings};
         admin_export,
         admin_curated,
         admin_verify_code,
-        admin_release
+        admin_release,
+        admin_models,
+        admin_train
     ),
     components(schemas(
         ErrorBody,
@@ -88,7 +91,10 @@ use crate::study::{self, MturkMode, PoolSummary, StudySettings};
         CuratedCreated,
         CodeCheck,
         ReleaseRequest,
-        Released
+        Released,
+        ModelSummary,
+        TrainRequest,
+        TrainStarted
     ))
 )]
 pub struct ApiDoc;
@@ -129,6 +135,10 @@ pub fn routes() -> Router<AppState> {
         .route(
             "/api/v1/admin/studies/{study}/release-abandoned",
             post(admin_release),
+        )
+        .route(
+            "/api/v1/admin/studies/{study}/models",
+            get(admin_models).post(admin_train),
         )
         .route(
             "/api/v1/admin/studies/{study}/codes/{code}",
@@ -397,6 +407,61 @@ async fn admin_dashboard(
 ) -> Result<Json<Dashboard>> {
     let s = study::load(&state.db, id).await?;
     Ok(Json(dashboard::compute(&state.db, &s).await?.0))
+}
+
+/// The study's trained style metrics, newest first (status, λ, accuracy; the report is at
+/// `/admin/studies/{study}/models/{id}/report/`).
+#[utoipa::path(get, path = "/api/v1/admin/studies/{study}/models", params(("study" = i64, Path)),
+    responses((status = 200, body = Vec<ModelSummary>), (status = 401, body = ErrorBody)))]
+async fn admin_models(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<StudyId>,
+) -> Result<Json<Vec<ModelSummary>>> {
+    study::load(&state.db, id).await?;
+    Ok(Json(train::list(&state.db, id).await?))
+}
+
+/// Training options (all optional).
+#[derive(Debug, Default, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TrainRequest {
+    /// λ of eq. 5.8; omitted: chosen by cross-validation.
+    pub lambda: Option<f64>,
+    /// Cross-validation folds (default 5).
+    pub folds: Option<usize>,
+}
+
+/// A training started in the background.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct TrainStarted {
+    /// The model being trained; poll `GET …/models` for its status.
+    pub id: crate::ids::ModelId,
+}
+
+/// Starts fitting the style metric on the study's answers (CSRF header required). Returns at
+/// once; 409 when there are no answers yet or a training is already running.
+#[utoipa::path(post, path = "/api/v1/admin/studies/{study}/models", params(("study" = i64, Path)),
+    request_body = TrainRequest,
+    responses((status = 202, body = TrainStarted), (status = 400, body = ErrorBody),
+        (status = 401, body = ErrorBody), (status = 403, body = ErrorBody),
+        (status = 409, body = ErrorBody)))]
+async fn admin_train(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<StudyId>,
+    ApiJson(req): ApiJson<TrainRequest>,
+) -> Result<impl IntoResponse> {
+    let s = study::load(&state.db, id).await?;
+    let opts = TrainOptions {
+        lambda: req.lambda,
+        folds: req.folds.unwrap_or(TrainOptions::default().folds),
+    };
+    let model = train::start(&state.db, &s, opts).await?;
+    Ok((
+        axum::http::StatusCode::ACCEPTED,
+        Json(TrainStarted { id: model }),
+    ))
 }
 
 /// Per-worker table.

@@ -11,6 +11,7 @@ use crate::error::{AppError, Result};
 use crate::export::ExportOptions;
 use crate::ids::StudyId;
 use crate::study::{MturkMode, StudySettings};
+use crate::train::{self, TrainOptions};
 use crate::{AppState, admin, bench, dashboard, demo, export, library, study};
 
 /// Rating-study platform for clip-art style similarity.
@@ -37,6 +38,9 @@ pub enum Command {
     Study(StudyCommand),
     /// Write a study's export files into a folder.
     Export(ExportArgs),
+    /// Fit the style metric on a study's answers and store it (with the learner's report)
+    /// in the database.
+    Train(TrainArgs),
     /// Manage admin accounts.
     #[command(subcommand)]
     Admin(AdminCommand),
@@ -117,7 +121,8 @@ pub struct DemoArgs {
     /// Folder of the fixture clip art (with `labels.csv`).
     #[arg(long, env = "PLATFORM_FIXTURES")]
     pub fixtures: Option<PathBuf>,
-    /// Run this many simulated workers (20% spammers) so the dashboard has data.
+    /// Run this many simulated workers (20% spammers) so the dashboard has data, then train
+    /// the style metric on their answers.
     #[arg(long, default_value_t = 0)]
     pub simulate: u32,
     /// Set everything up, print the links, and exit without serving.
@@ -215,6 +220,25 @@ pub struct ExportArgs {
     /// Include HITs not completed.
     #[arg(long)]
     pub include_incomplete: bool,
+}
+
+/// `platform train`.
+#[derive(Debug, Args)]
+pub struct TrainArgs {
+    /// Database.
+    #[command(flatten)]
+    pub db: DbArgs,
+    /// Study id.
+    pub id: StudyId,
+    /// λ of eq. 5.8 (L1 weight); default: chosen by cross-validation.
+    #[arg(long)]
+    pub lambda: Option<f64>,
+    /// Cross-validation folds (grouped by worker when there are enough workers).
+    #[arg(long, default_value_t = 5)]
+    pub folds: usize,
+    /// Also write the report and `model.json` into this folder.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
 }
 
 /// `platform admin ...`.
@@ -331,6 +355,44 @@ pub async fn run(cli: Cli) -> Result<()> {
             };
             let files = export::write_dir(&db, &s, opts, &args.public_url, &args.out).await?;
             println!("wrote {} to {}", files.join(", "), args.out.display());
+            Ok(())
+        }
+        Command::Train(args) => {
+            let db = args.db.connect().await?;
+            let s = study::load(&db, args.id).await?;
+            let opts = TrainOptions {
+                lambda: args.lambda,
+                folds: args.folds,
+            };
+            eprintln!("training the style metric of study {} …", s.id);
+            let m = train::run(&db, &s, opts).await?;
+            let pct =
+                |v: Option<f64>| v.map_or_else(|| "–".into(), |v| format!("{:.1}%", 100.0 * v));
+            println!(
+                "model {}: {} answers, λ = {:.4}, {} of 169 weights non-zero; agreement with the \
+                 answers {} (uniform weights {}), held-out {}",
+                m.id,
+                m.triplets.unwrap_or(0),
+                m.lambda.unwrap_or(f64::NAN),
+                m.nonzero.unwrap_or(0),
+                pct(m.train_accuracy),
+                pct(m.uniform_accuracy),
+                pct(m.cv_accuracy),
+            );
+            if let Some(note) = &m.message {
+                println!("note: {note}");
+            }
+            if let Some(dir) = &args.out {
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| AppError::BadRequest(format!("{}: {e}", dir.display())))?;
+                for name in train::file_names(&db, s.id, m.id).await? {
+                    let (_, bytes) = train::file(&db, s.id, m.id, &name).await?;
+                    std::fs::write(dir.join(&name), bytes)
+                        .map_err(|e| AppError::BadRequest(format!("{}: {e}", dir.display())))?;
+                }
+                println!("report: {}", dir.join("index.html").display());
+            }
+            println!("shown at /admin/studies/{}/models/{}/report/", s.id, m.id);
             Ok(())
         }
         Command::Admin(AdminCommand::Create { db, username }) => {

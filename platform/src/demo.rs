@@ -97,11 +97,22 @@ pub struct SimReport {
 }
 
 /// Runs `n` simulated workers through the flow functions (in process): honest workers answer
-/// controls right with probability 0.95 and main questions by a hidden per-tuple truth with
-/// probability 0.8; every fifth worker is a spammer answering at random.
+/// controls right with probability 0.95, and main questions like a person who sees style —
+/// the candidate sharing A's style label when exactly one does, otherwise a hidden per-tuple
+/// truth — with probability 0.8; every fifth worker is a spammer answering at random. So a
+/// metric trained on the demo's answers (`platform train`) has style to find.
 pub async fn simulate(db: &Db, study: &Study, n: u32, seed: u64) -> Result<SimReport> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut report = SimReport::default();
+    let styles: std::collections::HashMap<i64, Option<String>> =
+        sqlx::query("SELECT id, style FROM items WHERE library_id = $1")
+            .bind(study.library.0)
+            .fetch_all(&db.pool)
+            .await?
+            .iter()
+            .map(|r| Ok((r.try_get("id")?, r.try_get("style")?)))
+            .collect::<Result<_>>()?;
+    let style = |id: i64| styles.get(&id).cloned().flatten();
     for i in 0..n {
         let spammer = i % 5 == 4;
         let outcome = flow::start(
@@ -161,7 +172,7 @@ pub async fn simulate(db: &Db, study: &Study, n: u32, seed: u64) -> Result<SimRe
             continue;
         }
         let rows = sqlx::query(
-            "SELECT q.position, t.kind, t.id, t.b, t.c FROM questions q JOIN tuples t ON t.id = q.tuple_id \
+            "SELECT q.position, t.kind, t.id, t.a, t.b, t.c FROM questions q JOIN tuples t ON t.id = q.tuple_id \
              WHERE q.assignment_id = $1 ORDER BY q.position",
         )
         .bind(a.id.0)
@@ -176,7 +187,12 @@ pub async fn simulate(db: &Db, study: &Study, n: u32, seed: u64) -> Result<SimRe
             } else if kind == "control" {
                 rng.random_bool(0.95)
             } else {
-                let truth_b = tuple % 2 == 0;
+                let a_style = style(r.try_get("a")?);
+                let truth_b = match (style(b) == a_style, style(c) == a_style) {
+                    (true, false) if a_style.is_some() => true,
+                    (false, true) if a_style.is_some() => false,
+                    _ => tuple % 2 == 0,
+                };
                 if rng.random_bool(0.8) {
                     truth_b
                 } else {
@@ -215,6 +231,17 @@ pub async fn run(mut args: DemoArgs) -> Result<()> {
             "simulated {} honest worker(s) and {} spammer(s)",
             report.honest, report.spammers
         );
+        // The simulated answers are enough to fit the metric; a failure here (too few
+        // answers for cross-validation) is reported, not fatal.
+        match crate::train::run(&db, &study, crate::train::TrainOptions::default()).await {
+            Ok(m) => println!(
+                "trained the style metric on {} answers: {} of 169 weights non-zero (report on the \
+                 study's admin page)",
+                m.triplets.unwrap_or(0),
+                m.nonzero.unwrap_or(0)
+            ),
+            Err(e) => println!("style metric not trained: {e}"),
+        }
     }
     let (listener, state) = args.server.bind(db).await?;
     let base = state.settings.public_url.trim_end_matches('/').to_string();

@@ -75,6 +75,11 @@ typed_id!(
     DecisionId
 );
 
+typed_id!(
+    /// A style metric trained from a study's answers.
+    ModelId
+);
+
 /// A random id in `1..2^53`.
 pub fn random_id() -> i64 {
     use rand::Rng;

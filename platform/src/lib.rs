@@ -38,6 +38,7 @@ pub mod library;
 pub mod pages;
 pub mod qc;
 pub mod study;
+pub mod train;
 
 /// Server-wide settings that are not in the database.
 #[derive(Debug, Clone)]

@@ -17,10 +17,11 @@ use crate::error::{AppError, Result};
 use crate::export::{self, ExportOptions};
 use crate::extract::{ApiForm, ApiPath, ApiQuery};
 use crate::flow::{self, Demographics, Handback, QuestionView, Source, StartOutcome, StartRequest};
-use crate::ids::{AssignmentId, ItemId, StudyId};
+use crate::ids::{AssignmentId, ItemId, ModelId, StudyId};
 use crate::library;
 use crate::qc::{self, DecisionRecord, RuleOutcome};
 use crate::study::{self, MturkMode, StudySettings};
+use crate::train::{self, ModelSummary, TrainOptions};
 
 /// Worker and admin page routes.
 pub fn routes() -> Router<AppState> {
@@ -42,6 +43,19 @@ pub fn routes() -> Router<AppState> {
         .route("/admin/studies/{study}/qc", post(admin_qc))
         .route("/admin/studies/{study}/decision", post(admin_decision))
         .route("/admin/studies/{study}/export/{file}", get(admin_export))
+        .route("/admin/studies/{study}/train", post(admin_train))
+        .route(
+            "/admin/studies/{study}/models/{model}/report",
+            get(admin_report_redirect),
+        )
+        .route(
+            "/admin/studies/{study}/models/{model}/report/",
+            get(admin_report_index),
+        )
+        .route(
+            "/admin/studies/{study}/models/{model}/report/{file}",
+            get(admin_report_file),
+        )
 }
 
 fn render(t: &impl Template) -> Result<Response> {
@@ -827,10 +841,60 @@ struct AdminStudy {
     workers: Vec<dashboard::WorkerRow>,
     audit: Vec<DecisionRecord>,
     files: &'static [&'static str],
+    models: Vec<ModelRow>,
+    training_running: bool,
+}
+
+/// A model as the dashboard lists it (numbers formatted).
+struct ModelRow {
+    id: ModelId,
+    status: String,
+    message: String,
+    started: String,
+    triplets: String,
+    lambda: String,
+    nonzero: String,
+    train_accuracy: String,
+    uniform_accuracy: String,
+    cv_accuracy: String,
+}
+
+impl From<ModelSummary> for ModelRow {
+    fn from(m: ModelSummary) -> Self {
+        let pct = |v: Option<f64>| v.map_or_else(String::new, |v| format!("{:.1}%", 100.0 * v));
+        Self {
+            id: m.id,
+            status: m.status,
+            message: m.message.unwrap_or_default(),
+            started: utc_minute(m.started_at),
+            triplets: m.triplets.map_or_else(String::new, |v| v.to_string()),
+            lambda: m.lambda.map_or_else(String::new, |v| format!("{v:.4}")),
+            nonzero: m.nonzero.map_or_else(String::new, |v| v.to_string()),
+            train_accuracy: pct(m.train_accuracy),
+            uniform_accuracy: pct(m.uniform_accuracy),
+            cv_accuracy: pct(m.cv_accuracy),
+        }
+    }
 }
 
 /// `YYYY-MM-DD HH:00 UTC` of a Unix-ms time (civil-from-days, proleptic Gregorian).
 fn utc_hour(ms: i64) -> String {
+    let (year, month, day, secs) = utc_civil(ms);
+    format!("{year:04}-{month:02}-{day:02} {:02}:00 UTC", secs / 3600)
+}
+
+/// `YYYY-MM-DD HH:MM UTC` of a Unix-ms time.
+fn utc_minute(ms: i64) -> String {
+    let (year, month, day, secs) = utc_civil(ms);
+    format!(
+        "{year:04}-{month:02}-{day:02} {:02}:{:02} UTC",
+        secs / 3600,
+        secs % 3600 / 60
+    )
+}
+
+/// (year, month, day, seconds into the day) of a Unix-ms time.
+fn utc_civil(ms: i64) -> (i64, i64, i64, i64) {
     let secs = ms.div_euclid(1000);
     let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
     let z = days + 719_468;
@@ -842,7 +906,7 @@ fn utc_hour(ms: i64) -> String {
     let day = doy - (153 * mp + 2) / 5 + 1;
     let month = if mp < 10 { mp + 3 } else { mp - 9 };
     let year = yoe + era * 400 + i64::from(month <= 2);
-    format!("{year:04}-{month:02}-{day:02} {:02}:00 UTC", rem / 3600)
+    (year, month, day, rem)
 }
 
 fn fmt_opt(v: Option<f64>) -> String {
@@ -857,6 +921,7 @@ async fn study_page(
 ) -> Result<Response> {
     let s = study::load(&state.db, id).await?;
     let (d, workers) = dashboard::compute(&state.db, &s).await?;
+    let models = train::list(&state.db, id).await?;
     let max = d
         .control_error_histogram
         .iter()
@@ -894,6 +959,8 @@ async fn study_page(
         workers,
         audit: qc::audit(&state.db, id).await?,
         files: export::FILES,
+        training_running: models.iter().any(|m| m.status == "running"),
+        models: models.into_iter().map(ModelRow::from).collect(),
     })
 }
 
@@ -985,6 +1052,101 @@ async fn admin_export(
     )
 }
 
+#[derive(Debug, Deserialize)]
+struct TrainForm {
+    csrf: Option<String>,
+    /// Empty: λ by cross-validation.
+    lambda: Option<String>,
+}
+
+async fn admin_train(
+    State(state): State<AppState>,
+    admin: std::result::Result<Admin, AppError>,
+    ApiPath(id): ApiPath<StudyId>,
+    form: std::result::Result<ApiForm<TrainForm>, AppError>,
+) -> Response {
+    page(
+        async {
+            let admin = admin?;
+            let ApiForm(f) = form?;
+            admin.check_csrf(f.csrf.as_deref())?;
+            let lambda =
+                match f.lambda.as_deref().map(str::trim) {
+                    None | Some("") => None,
+                    Some(text) => Some(text.parse::<f64>().map_err(|_| {
+                        AppError::BadRequest(format!("λ: {text:?} is not a number"))
+                    })?),
+                };
+            let s = study::load(&state.db, id).await?;
+            let opts = TrainOptions {
+                lambda,
+                ..TrainOptions::default()
+            };
+            train::start(&state.db, &s, opts).await?;
+            Ok(Redirect::to(&format!("/admin/studies/{id}#models")).into_response())
+        }
+        .await,
+    )
+}
+
+async fn admin_report_redirect(
+    admin: std::result::Result<Admin, AppError>,
+    ApiPath((id, model)): ApiPath<(StudyId, ModelId)>,
+) -> Response {
+    page(admin.map(|_| {
+        Redirect::permanent(&format!("/admin/studies/{id}/models/{model}/report/")).into_response()
+    }))
+}
+
+/// A stored report file. The report is static (no script); the CSP keeps it that way.
+async fn report_file(
+    state: &AppState,
+    id: StudyId,
+    model: ModelId,
+    file: &str,
+) -> Result<Response> {
+    let (content_type, bytes) = train::file(&state.db, id, model, file).await?;
+    Ok((
+        [
+            (header::CONTENT_TYPE, content_type),
+            (
+                header::CONTENT_SECURITY_POLICY,
+                "default-src 'none'; img-src 'self'; style-src 'unsafe-inline'",
+            ),
+        ],
+        bytes,
+    )
+        .into_response())
+}
+
+async fn admin_report_index(
+    State(state): State<AppState>,
+    admin: std::result::Result<Admin, AppError>,
+    ApiPath((id, model)): ApiPath<(StudyId, ModelId)>,
+) -> Response {
+    page(
+        async {
+            admin?;
+            report_file(&state, id, model, "index.html").await
+        }
+        .await,
+    )
+}
+
+async fn admin_report_file(
+    State(state): State<AppState>,
+    admin: std::result::Result<Admin, AppError>,
+    ApiPath((id, model, file)): ApiPath<(StudyId, ModelId, String)>,
+) -> Response {
+    page(
+        async {
+            admin?;
+            report_file(&state, id, model, &file).await
+        }
+        .await,
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -995,5 +1157,7 @@ mod tests {
         // 2026-11-22 03:00:00 UTC.
         assert_eq!(utc_hour(1_795_316_400_000), "2026-11-22 03:00 UTC");
         assert_eq!(utc_hour(951_782_400_000), "2000-02-29 00:00 UTC");
+        // 2026-11-22 03:07:59 UTC.
+        assert_eq!(utc_minute(1_795_316_879_000), "2026-11-22 03:07 UTC");
     }
 }

@@ -356,6 +356,98 @@ async fn worker_and_admin_flows_in_chromium() {
         .await
         .expect("qc result");
     shot(&c, &artifacts, "08-admin-dashboard.png").await;
+
+    // The dashboard is live: answers given elsewhere appear without a reload.
+    c.goto(&server.url(&format!("/admin/studies/{study}?refresh=1")))
+        .await
+        .expect("live dashboard");
+    let answers_cell = || async {
+        c.find(Locator::Css("[data-k=answers]"))
+            .await
+            .expect("answers cell")
+            .text()
+            .await
+            .expect("text")
+    };
+    let before: i64 = answers_cell().await.parse().expect("answer count");
+    mark(&c).await;
+    let http = client();
+    for i in 0..4 {
+        let token = start_worker(&http, &server.base, study, &format!("api-{i}")).await;
+        pass_training(&http, &server.base, &token, &styles, Behaviour::Honest).await;
+        answer_all(&http, &server.base, &token, &styles, Behaviour::Honest).await;
+    }
+    let expected = before + 4 * 5;
+    let mut seen = before;
+    for _ in 0..100 {
+        seen = answers_cell().await.parse().expect("answer count");
+        if seen == expected {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    assert_eq!(seen, expected, "the live dashboard did not update");
+    let same_document = c
+        .execute("return window.__old === true;", vec![])
+        .await
+        .expect("script");
+    assert_eq!(
+        same_document,
+        serde_json::Value::Bool(true),
+        "updated without a reload"
+    );
+    shot(&c, &artifacts, "09-admin-dashboard-live.png").await;
+
+    // Train the style metric from the page; the model appears with its report.
+    c.find(Locator::Id("train"))
+        .await
+        .expect("train button")
+        .click()
+        .await
+        .expect("click");
+    let mut report_link = None;
+    for _ in 0..300 {
+        if let Ok(a) = c.find(Locator::Css("#model-list a")).await {
+            report_link = Some(a);
+            break;
+        }
+        if let Ok(row) = c
+            .find(Locator::Css("#model-list tr[data-status=failed]"))
+            .await
+        {
+            panic!("training failed: {}", row.text().await.unwrap_or_default());
+        }
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        c.goto(&server.url(&format!("/admin/studies/{study}")))
+            .await
+            .expect("dashboard");
+    }
+    report_link
+        .expect("no report link after training")
+        .click()
+        .await
+        .expect("open report");
+    c.wait()
+        .for_element(Locator::Css("figure img"))
+        .await
+        .expect("report figure");
+    let drawn = c
+        .execute(
+            "return Array.from(document.images).every(i => i.complete && i.naturalWidth > 100);",
+            vec![],
+        )
+        .await
+        .expect("script");
+    assert_eq!(drawn, serde_json::Value::Bool(true), "report figures load");
+    let title = c
+        .find(Locator::Css("h1"))
+        .await
+        .expect("h1")
+        .text()
+        .await
+        .expect("text");
+    assert_eq!(title, "Style metric report");
+    shot(&c, &artifacts, "10-admin-model-report.png").await;
     let _ = saw_reasons;
     c.close().await.expect("close");
 }

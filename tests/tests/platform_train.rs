@@ -1,0 +1,330 @@
+//! Training the style metric from a study's answers, through the admin API and page and through
+//! `platform train`, on SQLite and PostgreSQL: the stored model is checked against an
+//! independent evaluation (distances recomputed here from the stored features and the exported
+//! triplets), and the learner's report is served only to the admin.
+
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+use e2e::platform::*;
+use serde_json::{Value, json};
+
+macro_rules! both_databases {
+    ($scenario:ident, $sqlite:ident, $postgres:ident) => {
+        #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+        async fn $sqlite() {
+            $scenario(sqlite_db()).await;
+        }
+
+        #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+        async fn $postgres() {
+            if let Some(db) = postgres_db().await {
+                $scenario(db).await;
+            }
+        }
+    };
+}
+
+both_databases!(
+    train_from_answers,
+    train_from_answers_sqlite,
+    train_from_answers_postgres
+);
+
+/// Item name → raw feature vector, read straight from the database.
+async fn features_by_name(db_url: &str) -> HashMap<String, Vec<f64>> {
+    sqlx::any::install_default_drivers();
+    let pool = sqlx::AnyPool::connect(db_url).await.expect("connect");
+    let rows: Vec<(String, String)> = sqlx::query_as("SELECT name, features FROM items")
+        .fetch_all(&pool)
+        .await
+        .expect("items");
+    pool.close().await;
+    rows.into_iter()
+        .map(|(name, f)| (name, serde_json::from_str(&f).expect("features JSON")))
+        .collect()
+}
+
+/// Agreement of `model.json`'s metric with `triplets.csv`, computed here: `d(x, y)² = Σ w_k
+/// ((x_k − y_k) / s_k)²` (eq. 5.5); an answer agrees when the chosen candidate is the nearer.
+fn agreement(model: &Value, triplets_csv: &str, features: &HashMap<String, Vec<f64>>) -> f64 {
+    let w: Vec<f64> = serde_json::from_value(model["weights"].clone()).expect("weights");
+    let s: Vec<f64> = serde_json::from_value(model["scale"].clone()).expect("scale");
+    let d2 = |x: &[f64], y: &[f64]| -> f64 {
+        (0..w.len())
+            .map(|k| w[k] * ((x[k] - y[k]) / s[k]).powi(2))
+            .sum()
+    };
+    let mut reader = csv::Reader::from_reader(triplets_csv.as_bytes());
+    let (mut agree, mut n) = (0.0, 0usize);
+    for row in reader.records() {
+        let row = row.expect("csv row");
+        let f = |i: usize| {
+            features
+                .get(&row[i])
+                .expect("item of the triplet")
+                .as_slice()
+        };
+        let (dab, dac) = (d2(f(0), f(1)), d2(f(0), f(2)));
+        let q_is_b = &row[3] == "1";
+        agree += if dab == dac {
+            0.5
+        } else if (dab < dac) == q_is_b {
+            1.0
+        } else {
+            0.0
+        };
+        n += 1;
+    }
+    assert!(n > 0, "no triplets exported");
+    agree / n as f64
+}
+
+async fn train_from_answers(db: TestDb) {
+    let study = setup_study(
+        &db,
+        &StudyOpts {
+            questions: 20,
+            controls: 2,
+            tuples: 400,
+            replication: 1,
+            ..StudyOpts::default()
+        },
+    );
+    let server = Server::start(&db.url);
+    let base = server.base.clone();
+    let c = client();
+    let (cookie, csrf) = admin_login(&c, &base).await;
+    let models_url = format!("{base}/api/v1/admin/studies/{study}/models");
+
+    // Nothing to train on yet: a clear 409, and no model row.
+    let (status, body) = send(
+        c.post(&models_url)
+            .header("cookie", &cookie)
+            .header("x-csrf-token", &csrf)
+            .json(&json!({})),
+    )
+    .await;
+    assert_eq!(status, 409, "train without answers: {body}");
+    assert!(
+        body.to_string().contains("no answers"),
+        "message should say why: {body}"
+    );
+    // The API refuses anonymous and CSRF-less requests.
+    let (status, _) = send(c.post(&models_url).json(&json!({}))).await;
+    assert_eq!(status, 401);
+    let (status, _) = send(
+        c.post(&models_url)
+            .header("cookie", &cookie)
+            .json(&json!({})),
+    )
+    .await;
+    assert_eq!(status, 403);
+    // Invalid options are a 400 naming the field.
+    let (status, body) = send(
+        c.post(&models_url)
+            .header("cookie", &cookie)
+            .header("x-csrf-token", &csrf)
+            .json(&json!({"lambda": -1.0})),
+    )
+    .await;
+    assert_eq!(status, 400, "negative λ: {body}");
+
+    // Honest workers who see style answer 20 questions each.
+    let styles = item_styles(&db.url).await;
+    for i in 0..12 {
+        let token = start_worker(&c, &base, study, &format!("train-{i}")).await;
+        pass_training(&c, &base, &token, &styles, Behaviour::Honest).await;
+        let done = answer_all(&c, &base, &token, &styles, Behaviour::Honest).await;
+        assert_eq!(done["status"], "completed", "{done}");
+    }
+
+    // The admin page's Train button: CSRF-checked form, then a redirect to the model list.
+    let train_url = format!("{base}/admin/studies/{study}/train");
+    let resp = c
+        .post(&train_url)
+        .header("cookie", &cookie)
+        .form(&[("lambda", "")])
+        .send()
+        .await
+        .expect("train form");
+    assert_eq!(resp.status().as_u16(), 403, "form without CSRF");
+    let resp = c
+        .post(&train_url)
+        .header("cookie", &cookie)
+        .form(&[("csrf", csrf.as_str()), ("lambda", "")])
+        .send()
+        .await
+        .expect("train form");
+    assert_eq!(resp.status().as_u16(), 303);
+    assert_eq!(
+        resp.headers()["location"],
+        format!("/admin/studies/{study}#models").as_str()
+    );
+
+    // It trains in the background; poll the API until it is done.
+    let deadline = Instant::now() + Duration::from_secs(300);
+    let model = loop {
+        let (status, list) = send(c.get(&models_url).header("cookie", &cookie)).await;
+        assert_eq!(status, 200, "{list}");
+        let list = list.as_array().expect("model list").clone();
+        assert_eq!(list.len(), 1, "one training started: {list:?}");
+        match list[0]["status"].as_str() {
+            Some("running") => {
+                assert!(Instant::now() < deadline, "training did not finish");
+                tokio::time::sleep(Duration::from_millis(200)).await;
+            }
+            Some("done") => break list[0].clone(),
+            other => panic!("training ended {other:?}: {}", list[0]),
+        }
+    };
+    let model_id = model["id"].as_i64().expect("model id");
+    let answers = 12 * (20 - 2);
+    assert_eq!(model["triplets"], answers, "{model}");
+
+    // The report and model.json, for the admin only.
+    let report = format!("{base}/admin/studies/{study}/models/{model_id}/report/");
+    let resp = c.get(&report).send().await.expect("report");
+    assert_eq!(resp.status().as_u16(), 303, "anonymous report");
+    assert_eq!(resp.headers()["location"], "/admin/login");
+    let resp = c
+        .get(&report)
+        .header("cookie", &cookie)
+        .send()
+        .await
+        .expect("report");
+    assert_eq!(resp.status().as_u16(), 200);
+    assert!(
+        resp.headers()["content-type"]
+            .to_str()
+            .unwrap()
+            .starts_with("text/html")
+    );
+    assert!(
+        resp.headers()["content-security-policy"]
+            .to_str()
+            .unwrap()
+            .contains("default-src 'none'")
+    );
+    let html = resp.text().await.expect("report body");
+    assert!(html.contains("Style metric report"), "{html}");
+    assert!(
+        html.contains("Agreement with the study's answers"),
+        "{html}"
+    );
+    for figure in ["weights.svg", "weights.png", "lambda.svg"] {
+        assert!(html.contains(figure), "report links {figure}");
+        let resp = c
+            .get(format!("{report}{figure}"))
+            .header("cookie", &cookie)
+            .send()
+            .await
+            .expect("figure");
+        assert_eq!(resp.status().as_u16(), 200, "{figure}");
+        let bytes = resp.bytes().await.expect("figure bytes");
+        if figure.ends_with(".png") {
+            let img = image::load_from_memory(&bytes).expect("PNG decodes");
+            assert!(img.width() > 100 && img.height() > 100);
+        } else {
+            assert!(String::from_utf8_lossy(&bytes).contains("<svg"));
+        }
+    }
+    for bad in ["missing.svg", "..%2F..%2Fetc%2Fpasswd", "index.exe"] {
+        let resp = c
+            .get(format!("{report}{bad}"))
+            .header("cookie", &cookie)
+            .send()
+            .await
+            .expect("bad file");
+        assert_eq!(resp.status().as_u16(), 404, "{bad}");
+    }
+    let model_json: Value = c
+        .get(format!("{report}model.json"))
+        .header("cookie", &cookie)
+        .send()
+        .await
+        .expect("model.json")
+        .json()
+        .await
+        .expect("model.json parses");
+    let weights = model_json["weights"].as_array().expect("weights");
+    assert_eq!(weights.len(), 169);
+    let nonzero = weights
+        .iter()
+        .filter(|w| w.as_f64().expect("weight") > 0.0)
+        .count();
+    assert!(weights.iter().all(|w| w.as_f64().unwrap() >= 0.0));
+    assert_eq!(model["nonzero"], nonzero);
+    assert_eq!(model_json["lambda"], model["lambda"]);
+
+    // Independent check of the stored agreement on the exported answers.
+    let triplets_csv = c
+        .get(format!("{base}/admin/studies/{study}/export/triplets.csv"))
+        .header("cookie", &cookie)
+        .send()
+        .await
+        .expect("export")
+        .text()
+        .await
+        .expect("csv");
+    let features = features_by_name(&db.url).await;
+    let ours = agreement(&model_json, &triplets_csv, &features);
+    let stored = model["train_accuracy"].as_f64().expect("train accuracy");
+    assert!(
+        (ours - stored).abs() < 1e-9,
+        "agreement recomputed {ours} vs stored {stored}"
+    );
+    // Workers answered by style labels the features partly capture: the metric finds it.
+    assert!(stored > 0.6, "learned agreement {stored}");
+    let uniform = model["uniform_accuracy"]
+        .as_f64()
+        .expect("uniform accuracy");
+    assert!((0.0..=1.0).contains(&uniform));
+    let held_out = model["cv_accuracy"].as_f64().expect("held-out accuracy");
+    assert!(held_out > 0.5, "held-out {held_out}");
+
+    // The dashboard lists it with its report link.
+    let page = c
+        .get(format!("{base}/admin/studies/{study}"))
+        .header("cookie", &cookie)
+        .send()
+        .await
+        .expect("dashboard")
+        .text()
+        .await
+        .expect("html");
+    assert!(page.contains(&format!("/admin/studies/{study}/models/{model_id}/report/")));
+
+    // `platform train` with a fixed λ, writing the report to a folder.
+    let out = tempfile::tempdir().expect("out dir");
+    let printed = platform_ok(
+        &[
+            "train",
+            &study.to_string(),
+            "--database-url",
+            &db.url,
+            "--lambda",
+            "0.5",
+            "--out",
+            &out.path().to_string_lossy(),
+        ],
+        &[],
+    );
+    assert!(printed.contains("λ = 0.5000"), "{printed}");
+    let cli_model: Value = serde_json::from_str(
+        &std::fs::read_to_string(out.path().join("model.json")).expect("model.json written"),
+    )
+    .expect("model.json parses");
+    assert_eq!(cli_model["lambda"], 0.5);
+    assert!(out.path().join("index.html").exists());
+    assert!(out.path().join("weights.png").exists());
+    let (_, list) = send(c.get(&models_url).header("cookie", &cookie)).await;
+    assert_eq!(list.as_array().map(Vec::len), Some(2), "{list}");
+    // A fixed λ has no cross-validation, hence no held-out figure.
+    assert!(list[0]["cv_accuracy"].is_null(), "{list}");
+
+    // A bad study id is a clear CLI error, not a panic.
+    let bad = platform_cmd(&["train", "1", "--database-url", &db.url], &[]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("not found"));
+}
