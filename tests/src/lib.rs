@@ -21,6 +21,11 @@ pub fn fixture(relative: &str) -> PathBuf {
 /// The path of a workspace binary built in the same profile as this test. The first call in a
 /// test process runs `cargo build` for it (a no-op when it is up to date), so a test never runs
 /// a stale binary when only this crate's tests were selected.
+///
+/// `scripts/test` sets `E2E_BINARIES_BUILT=1`: its `cargo nextest run --workspace` has just
+/// built every binary (as the packages' own integration tests need them), and a `cargo build -p`
+/// here would resolve features differently (no dev-dependencies) and compile the dependency tree
+/// a second time.
 pub fn binary(package: &str, name: &str) -> PathBuf {
     static BUILT: Mutex<Vec<String>> = Mutex::new(Vec::new());
     // target/<profile>/deps/<test-exe> → target/<profile>/<name>
@@ -29,8 +34,10 @@ pub fn binary(package: &str, name: &str) -> PathBuf {
         .parent()
         .and_then(Path::parent)
         .expect("test executable in target/<profile>/deps");
+    let prebuilt = std::env::var_os("E2E_BINARIES_BUILT").is_some_and(|v| v == "1")
+        && profile_dir.join(name).is_file();
     let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
-    if !built.iter().any(|b| b == name) {
+    if !prebuilt && !built.iter().any(|b| b == name) {
         let profile = profile_dir
             .file_name()
             .and_then(|p| p.to_str())
