@@ -323,3 +323,42 @@ fn render_shows_the_canvas_and_the_mask_overlay() {
     ]);
     assert!(String::from_utf8_lossy(&missing.stderr).contains("no icon 'moon'"));
 }
+
+/// A reader that goes away (`learner triplets … | head -0`) ends the command quietly: no panic,
+/// no error message, and the output file is still complete.
+#[test]
+fn closed_stdout_is_not_a_panic() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("t.csv");
+    let mut child = std::process::Command::new(e2e::binary("learner", "learner"))
+        .args([
+            os("triplets"),
+            os("--labels"),
+            fixture("style/labels.csv").as_os_str(),
+            os("--n"),
+            os("200"),
+            os("--seed"),
+            os("3"),
+            os("--out"),
+            out.as_os_str(),
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn learner");
+    // Close the read end before the command writes its summary line.
+    drop(child.stdout.take());
+    let output = child.wait_with_output().expect("wait");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(
+        output.status.success(),
+        "status {:?}: {stderr}",
+        output.status
+    );
+    let rows = fs::read_to_string(&out)
+        .expect("triplets written")
+        .lines()
+        .count();
+    assert_eq!(rows, 201, "header and 200 triplets");
+}

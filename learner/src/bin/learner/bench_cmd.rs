@@ -126,35 +126,35 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     let parallel_s = t.elapsed().as_secs_f64();
     let items_per_s = ok as f64 / parallel_s;
 
-    println!(
+    outln!(
         "\nper image, one thread ({} items, {failed} failed)",
         sample.len()
-    );
-    println!("{:<28} {:>10}", "stage", "ms/image");
+    )?;
+    outln!("{:<28} {:>10}", "stage", "ms/image")?;
     for (name, d) in STAGES.iter().zip(totals) {
-        println!("{name:<28} {:>10.3}", ms(d));
+        outln!("{name:<28} {:>10.3}", ms(d))?;
     }
-    println!("{:<28} {:>10.3}", "render (a)", render_ms);
-    println!(
+    outln!("{:<28} {:>10.3}", "render (a)", render_ms)?;
+    outln!(
         "{:<28} {:>10.3}",
         "render + 169 features (b)",
         render_ms + features_ms
-    );
-    println!(
+    )?;
+    outln!(
         "{:<28} {:>10.2}",
         "features / render",
         features_ms / render_ms
-    );
-    println!(
+    )?;
+    outln!(
         "{:<28} {:>10.2}",
         "(b) / (a)",
         (render_ms + features_ms) / render_ms
-    );
-    println!(
+    )?;
+    outln!(
         "\nall {} threads: {items_per_s:.1} items/s → 200,000 items in {:.1} min",
         rayon::current_num_threads(),
         200_000.0 / items_per_s / 60.0
-    );
+    )?;
 
     let mut report = serde_json::json!({
         "items": sample.len(), "failed": failed,
@@ -208,11 +208,14 @@ fn python_side_by_side(
     }
     let py: serde_json::Value = serde_json::from_slice(&std::fs::read(&out)?)?;
     let per = &py["seconds_per_image"];
-    println!("\nside by side with Python (numpy/scipy/scikit-image/mahotas), one core, ms/image");
-    println!(
+    outln!("\nside by side with Python (numpy/scipy/scikit-image/mahotas), one core, ms/image")?;
+    outln!(
         "{:<10} {:>10} {:>10} {:>10}",
-        "family", "rust", "python", "speed-up"
-    );
+        "family",
+        "rust",
+        "python",
+        "speed-up"
+    )?;
     let mut rust_total = 0.0;
     let mut py_total = 0.0;
     let mut py_total_without_swt = 0.0;
@@ -220,7 +223,7 @@ fn python_side_by_side(
     for (k, name) in STAGES.iter().enumerate().skip(2) {
         let r = totals[k].as_secs_f64() * 1e3 / n;
         let p = per[*name].as_f64().unwrap_or(f64::NAN) * 1e3;
-        println!("{name:<10} {r:>10.3} {p:>10.3} {:>9.1}x", p / r);
+        outln!("{name:<10} {r:>10.3} {p:>10.3} {:>9.1}x", p / r)?;
         rust_total += r;
         py_total += p;
         if *name != "swt" {
@@ -228,16 +231,16 @@ fn python_side_by_side(
             py_total_without_swt += p;
         }
     }
-    println!(
+    outln!(
         "{:<10} {rust_total:>10.3} {py_total:>10.3} {:>9.1}x",
         "all",
         py_total / rust_total
-    );
-    println!(
+    )?;
+    outln!(
         "{:<10} {rust_total_without_swt:>10.3} {py_total_without_swt:>10.3} {:>9.1}x",
         "all - swt",
         py_total_without_swt / rust_total_without_swt
-    );
-    println!("(Python versions: {})", py["versions"]);
+    )?;
+    outln!("(Python versions: {})", py["versions"])?;
     Ok(py)
 }

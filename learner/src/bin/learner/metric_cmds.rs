@@ -93,10 +93,10 @@ pub fn run_simulate(a: &SimulateArgs) -> Result<()> {
         w.flush()?;
     }
     write_json(&a.out.join("truth.json"), &sim.true_weights)?;
-    println!(
+    outln!(
         "wrote {} (features, triplets, fresh, truth)",
         a.out.display()
-    );
+    )?;
     Ok(())
 }
 
@@ -129,12 +129,12 @@ pub fn run_split(a: &SplitArgs) -> Result<()> {
     let s = split_labels(&labels, &a.test_styles, a.concept_fraction, a.seed)?;
     write_labels(&s.train, &a.train_out)?;
     write_labels(&s.test, &a.test_out)?;
-    println!(
+    outln!(
         "train {} items, test {} items, dropped {} (one of style/concept held out)",
         s.train.len(),
         s.test.len(),
         s.dropped
-    );
+    )?;
     Ok(())
 }
 
@@ -169,7 +169,7 @@ pub fn run_triplets(a: &TripletsArgs) -> Result<()> {
     }
     let t: Vec<TripletRecord> = generate_labelled(&labels, a.n, a.seed)?;
     write_triplets(&t, &a.out)?;
-    println!("wrote {} triplets to {}", t.len(), a.out.display());
+    outln!("wrote {} triplets to {}", t.len(), a.out.display())?;
     Ok(())
 }
 
@@ -248,7 +248,7 @@ pub fn run_train(a: &TrainArgs) -> Result<()> {
     })?;
     pb.finish_and_clear();
     model.save(&a.out)?;
-    println!(
+    outln!(
         "λ = {:.4}, {} of {} weights non-zero, objective {:.6} ({} iterations, {} evaluations, \
          converged: {}) in {:.2} s → {}",
         model.lambda,
@@ -260,14 +260,17 @@ pub fn run_train(a: &TrainArgs) -> Result<()> {
         model.solver.converged,
         start.elapsed().as_secs_f64(),
         a.out.display()
-    );
+    )?;
     if let Some(cv) = &model.cv {
-        println!(
+        outln!(
             "{:>12} {:>10} {:>10} {:>9}",
-            "λ", "log-loss", "accuracy", "non-zero"
-        );
+            "λ",
+            "log-loss",
+            "accuracy",
+            "non-zero"
+        )?;
         for r in &cv.rows {
-            println!(
+            outln!(
                 "{:>12.4} {:>10.5} {:>10.4} {:>9.1}{}",
                 r.lambda,
                 r.log_loss,
@@ -278,7 +281,7 @@ pub fn run_train(a: &TrainArgs) -> Result<()> {
                 } else {
                     ""
                 }
-            );
+            )?;
         }
     }
     Ok(())
@@ -314,37 +317,42 @@ fn est(e: &Estimate) -> String {
     format!("{:.4} [{:.4}, {:.4}]", e.value, e.low, e.high)
 }
 
-fn print_eval(r: &EvalReport) {
-    println!(
+fn print_eval(r: &EvalReport) -> Result<()> {
+    outln!(
         "{:<10} {:<8} {:>28} {:>28} {:>7}",
-        "metric", "labels", "accuracy [95% CI]", "perplexity [95% CI]", "n"
-    );
+        "metric",
+        "labels",
+        "accuracy [95% CI]",
+        "perplexity [95% CI]",
+        "n"
+    )?;
     for (name, m) in [
         ("learned", &r.learned),
         ("uniform", &r.uniform),
         ("random", &r.random),
     ] {
         let m: &MethodScores = m;
-        println!(
+        outln!(
             "{name:<10} {:<8} {:>28} {:>28} {:>7}",
             "raw",
             est(&m.raw.accuracy),
             est(&m.raw.perplexity),
             m.raw.n
-        );
+        )?;
         if let Some(s) = &m.majority {
-            println!(
+            outln!(
                 "{name:<10} {:<8} {:>28} {:>28} {:>7}",
                 "majority",
                 est(&s.accuracy),
                 est(&s.perplexity),
                 s.n
-            );
+            )?;
         }
     }
     if r.learned.ties_dropped > 0 {
-        println!("(majority: {} tied tuples dropped)", r.learned.ties_dropped);
+        outln!("(majority: {} tied tuples dropped)", r.learned.ties_dropped)?;
     }
+    Ok(())
 }
 
 /// Runs `learner eval`.
@@ -364,7 +372,7 @@ pub fn run_eval(a: &EvalArgs) -> Result<()> {
             seed: a.seed,
         },
     )?;
-    print_eval(&report);
+    print_eval(&report)?;
     if let Some(p) = &a.json {
         write_json(p, &report)?;
     }
@@ -394,14 +402,20 @@ pub struct RankArgs {
     pub json: Option<PathBuf>,
 }
 
-fn print_rank(r: &RankReport) {
+fn print_rank(r: &RankReport) -> Result<()> {
     let row = |name: &str, s: &RankScores| {
-        println!(
+        outln!(
             "{name:<9} {:>6.3} {:>6.3} {:>6.3} {:>7.3} {:>8.3} {:>7.3} {:>8.3}",
-            s.auc, s.map, s.mrr, s.prec_at_3, s.prec_at_10, s.ndcg_at_3, s.ndcg_at_10
+            s.auc,
+            s.map,
+            s.mrr,
+            s.prec_at_3,
+            s.prec_at_10,
+            s.ndcg_at_3,
+            s.ndcg_at_10
         )
     };
-    println!(
+    outln!(
         "{} items, {} styles, {} queries{}",
         r.items,
         r.styles,
@@ -411,13 +425,20 @@ fn print_rank(r: &RankReport) {
         } else {
             String::new()
         }
-    );
-    println!(
+    )?;
+    outln!(
         "{:<9} {:>6} {:>6} {:>6} {:>7} {:>8} {:>7} {:>8}",
-        "metric", "AUC", "MAP", "MRR", "Prec@3", "Prec@10", "NDCG@3", "NDCG@10"
-    );
-    row("learned", &r.learned);
-    row("uniform", &r.uniform);
+        "metric",
+        "AUC",
+        "MAP",
+        "MRR",
+        "Prec@3",
+        "Prec@10",
+        "NDCG@3",
+        "NDCG@10"
+    )?;
+    row("learned", &r.learned)?;
+    row("uniform", &r.uniform)
 }
 
 /// Runs `learner rank`.
@@ -426,7 +447,7 @@ pub fn run_rank(a: &RankArgs) -> Result<()> {
     let table = read_features(&a.features)?;
     let labels = read_labels(&a.labels)?;
     let report = rank(&model, &table, &labels, a.max_queries, a.seed)?;
-    print_rank(&report);
+    print_rank(&report)?;
     if let Some(p) = &a.json {
         write_json(p, &report)?;
     }
@@ -515,7 +536,7 @@ pub fn run_report(a: &ReportArgs) -> Result<()> {
     }
     let files = write_report(&a.out, &model, curve.as_deref(), &extra)?;
     for f in files {
-        println!("{}", f.display());
+        outln!("{}", f.display())?;
     }
     Ok(())
 }
@@ -723,18 +744,23 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
         pb.finish_and_clear();
         (Some(t.elapsed().as_secs_f64()), 40)
     };
-    println!(
+    outln!(
         "metric bench: {n} triplets × {dim} features, λ = {lambda}, {threads} threads; one fused \
          evaluation {:.2} ms",
         one_eval * 1e3
-    );
-    println!(
+    )?;
+    outln!(
         "{:<28} {:>9} {:>6} {:>10} {:>22} {:>12}",
-        "solver", "seconds", "evals", "iters", "objective", "vs argmin"
-    );
+        "solver",
+        "seconds",
+        "evals",
+        "iters",
+        "objective",
+        "vs argmin"
+    )?;
     let base = fits[0].seconds;
     for f in &fits {
-        println!(
+        outln!(
             "{:<28} {:>9.3} {:>6} {:>10} {:>22.9} {:>11.2}x",
             format!("{:?}", f.solver),
             f.seconds,
@@ -742,10 +768,10 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
             f.iterations,
             f.objective,
             f.seconds / base
-        );
+        )?;
     }
     if let Some(s) = &scipy {
-        println!(
+        outln!(
             "{:<28} {:>9.3} {:>6} {:>10} {:>22.9} {:>11.2}x   (numpy eval {:.2} ms)",
             "SciPy L-BFGS-B",
             s.seconds,
@@ -754,12 +780,12 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
             s.objective,
             s.seconds / base,
             s.numpy_eval_seconds * 1e3
-        );
+        )?;
     }
     if let Some(cv) = cv_seconds {
-        println!(
+        outln!(
             "argmin 5-fold CV over 8 λ as in `learner train` ({cv_fits} fits, warm starts, ftol 1e-8): {cv:.2} s"
-        );
+        )?;
     }
     if let Some(p) = &a.json {
         write_json(
