@@ -12,6 +12,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use sqlx::any::{AnyPoolOptions, AnyRow};
 use sqlx::{Any, AnyPool, Executor, Transaction};
 
+use crate::answer_writer::AnswerWriter;
 use crate::error::{AppError, Result};
 
 /// Which database the pool talks to.
@@ -35,6 +36,8 @@ pub struct Db {
     pub writer: AnyPool,
     /// The backend behind it.
     pub backend: Backend,
+    /// Group commit of answers through `writer` (see [`crate::answer_writer`]).
+    pub answers: AnswerWriter,
 }
 
 /// Migrations embedded at build time.
@@ -91,10 +94,12 @@ impl Db {
             Backend::Sqlite => options(1).connect(&url).await?,
             Backend::Postgres => pool.clone(),
         };
+        let answers = AnswerWriter::start(writer.clone(), backend);
         Ok(Self {
             pool,
             writer,
             backend,
+            answers,
         })
     }
 

@@ -14,6 +14,7 @@ use sha2::Sha256;
 use sqlx::Row;
 use utoipa::ToSchema;
 
+use crate::answer_writer::AnswerWrite;
 use crate::db::{Backend, Db, now_ms};
 use crate::error::{AppError, Result};
 use crate::ids::{AssignmentId, ItemId, StudyId, TupleId, WorkerId, random_token};
@@ -838,18 +839,17 @@ pub async fn answer(
             ));
         }
         None => {
-            let stored = sqlx::query(
-                "UPDATE questions SET choice = $1, answered_at = $2, elapsed_ms = $3 \
-                 WHERE assignment_id = $4 AND position = $5 AND choice IS NULL",
-            )
-            .bind(choice)
-            .bind(now_ms())
-            .bind(req.elapsed_ms)
-            .bind(a.id.0)
-            .bind(req.position)
-            .execute(&db.writer)
-            .await?;
-            if stored.rows_affected() == 0 {
+            // Group commit (see `answer_writer`): returns after the commit holding it.
+            let stored = db
+                .answers
+                .write(AnswerWrite {
+                    assignment: a.id.0,
+                    position: req.position,
+                    choice,
+                    elapsed_ms: req.elapsed_ms,
+                })
+                .await?;
+            if stored == 0 {
                 // A concurrent duplicate won: same answer → duplicate, else conflict.
                 let again = sqlx::query(
                     "SELECT choice FROM questions WHERE assignment_id = $1 AND position = $2",

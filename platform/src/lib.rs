@@ -23,6 +23,7 @@ use axum::http::{HeaderValue, header};
 use tower_http::set_header::SetResponseHeaderLayer;
 
 pub mod admin;
+pub mod answer_writer;
 pub mod api;
 pub mod bench;
 pub mod cli;
