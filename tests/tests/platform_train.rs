@@ -45,6 +45,73 @@ async fn features_by_name(db_url: &str) -> HashMap<String, Vec<f64>> {
         .collect()
 }
 
+/// Item id → raw feature vector.
+async fn features_by_id(db_url: &str) -> HashMap<i64, Vec<f64>> {
+    sqlx::any::install_default_drivers();
+    let pool = sqlx::AnyPool::connect(db_url).await.expect("connect");
+    let rows: Vec<(i64, String)> = sqlx::query_as("SELECT id, features FROM items")
+        .fetch_all(&pool)
+        .await
+        .expect("items");
+    pool.close().await;
+    rows.into_iter()
+        .map(|(id, f)| (id, serde_json::from_str(&f).expect("features JSON")))
+        .collect()
+}
+
+/// A simulated rater whose hidden metric is the Euclidean distance over the 15 colour features
+/// (standardised), answering by it with probability 0.9.
+struct ColourRater {
+    standardised: HashMap<i64, Vec<f64>>,
+}
+
+impl ColourRater {
+    const COLOUR: usize = 15;
+
+    fn new(features: &HashMap<i64, Vec<f64>>) -> Self {
+        let n = features.len() as f64;
+        let mean: Vec<f64> = (0..Self::COLOUR)
+            .map(|k| features.values().map(|f| f[k]).sum::<f64>() / n)
+            .collect();
+        let sd: Vec<f64> = (0..Self::COLOUR)
+            .map(|k| {
+                let v = features
+                    .values()
+                    .map(|f| (f[k] - mean[k]).powi(2))
+                    .sum::<f64>()
+                    / n;
+                if v > 0.0 { v.sqrt() } else { 1.0 }
+            })
+            .collect();
+        let standardised = features
+            .iter()
+            .map(|(id, f)| {
+                let z = (0..Self::COLOUR)
+                    .map(|k| (f[k] - mean[k]) / sd[k])
+                    .collect();
+                (*id, z)
+            })
+            .collect();
+        Self { standardised }
+    }
+
+    fn choose(&self, q: &Value) -> i64 {
+        use rand::Rng;
+        let id = |k: &str| q[k]["id"].as_i64().expect("item id");
+        let (a, l, r) = (id("reference"), id("left"), id("right"));
+        let d = |x: i64, y: i64| -> f64 {
+            let (x, y) = (&self.standardised[&x], &self.standardised[&y]);
+            x.iter().zip(y).map(|(p, q)| (p - q).powi(2)).sum()
+        };
+        let (near, far) = if d(a, l) <= d(a, r) { (l, r) } else { (r, l) };
+        if rand::rng().random_bool(0.9) {
+            near
+        } else {
+            far
+        }
+    }
+}
+
 /// Agreement of `model.json`'s metric with `triplets.csv`, computed here: `d(x, y)² = Σ w_k
 /// ((x_k − y_k) / s_k)²` (eq. 5.5); an answer agrees when the chosen candidate is the nearer.
 fn agreement(model: &Value, triplets_csv: &str, features: &HashMap<String, Vec<f64>>) -> f64 {
@@ -130,13 +197,28 @@ async fn train_from_answers(db: TestDb) {
     .await;
     assert_eq!(status, 400, "negative λ: {body}");
 
-    // Honest workers who see style answer 20 questions each.
+    // Raters who judge by colour: each answers with the candidate nearer to A in the 15 colour
+    // features (standardised over the library), 90% of the time. The fitted metric must find it.
     let styles = item_styles(&db.url).await;
-    for i in 0..12 {
+    let rater = ColourRater::new(&features_by_id(&db.url).await);
+    const WORKERS: i64 = 20;
+    for i in 0..WORKERS {
         let token = start_worker(&c, &base, study, &format!("train-{i}")).await;
         pass_training(&c, &base, &token, &styles, Behaviour::Honest).await;
-        let done = answer_all(&c, &base, &token, &styles, Behaviour::Honest).await;
-        assert_eq!(done["status"], "completed", "{done}");
+        loop {
+            let (status, st) = send(c.get(format!("{base}/api/v1/assignments/{token}"))).await;
+            assert_eq!(status, 200, "state: {st}");
+            let Some(q) = st.get("question").filter(|q| !q.is_null()) else {
+                assert_eq!(st["status"], "completed", "{st}");
+                break;
+            };
+            let (status, ack) = send(
+                c.post(format!("{base}/api/v1/assignments/{token}/answers"))
+                    .json(&json!({"position": q["position"], "choice": rater.choose(q)})),
+            )
+            .await;
+            assert_eq!(status, 200, "answer: {ack}");
+        }
     }
 
     // The admin page's Train button: CSRF-checked form, then a redirect to the model list.
@@ -179,8 +261,16 @@ async fn train_from_answers(db: TestDb) {
         }
     };
     let model_id = model["id"].as_i64().expect("model id");
-    let answers = 12 * (20 - 2);
-    assert_eq!(model["triplets"], answers, "{model}");
+    // Trained on the main answers of the HITs the control rule kept (colour raters miss some
+    // style controls, and ≥ 2 errors reject a HIT), exactly what triplets.csv exports.
+    let (_, dash) = send(
+        c.get(format!("{base}/api/v1/admin/studies/{study}/dashboard"))
+            .header("cookie", &cookie),
+    )
+    .await;
+    assert_eq!(dash["completed"], WORKERS, "{dash}");
+    let kept = WORKERS - dash["rejected"].as_i64().expect("rejected count");
+    assert_eq!(model["triplets"], kept * (20 - 2), "{model}");
 
     // The report and model.json, for the admin only.
     let report = format!("{base}/admin/studies/{study}/models/{model_id}/report/");
@@ -274,14 +364,21 @@ async fn train_from_answers(db: TestDb) {
         (ours - stored).abs() < 1e-9,
         "agreement recomputed {ours} vs stored {stored}"
     );
-    // Workers answered by style labels the features partly capture: the metric finds it.
-    assert!(stored > 0.6, "learned agreement {stored}");
+    eprintln!(
+        "agreement: learned {stored:.3}, uniform {:.3}, held-out {:.3}",
+        model["uniform_accuracy"], model["cv_accuracy"]
+    );
+    // 90% of the answers follow the colour distance: the metric recovers most of that.
+    assert!(stored > 0.75, "learned agreement {stored}");
     let uniform = model["uniform_accuracy"]
         .as_f64()
         .expect("uniform accuracy");
-    assert!((0.0..=1.0).contains(&uniform));
+    assert!(
+        stored > uniform,
+        "learned {stored} does not beat uniform {uniform}"
+    );
     let held_out = model["cv_accuracy"].as_f64().expect("held-out accuracy");
-    assert!(held_out > 0.5, "held-out {held_out}");
+    assert!(held_out > 0.65, "held-out {held_out}");
 
     // The dashboard lists it with its report link.
     let page = c
