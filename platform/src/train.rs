@@ -228,9 +228,22 @@ fn html_escape(s: &str) -> String {
 /// Fits the metric and renders the report (CPU-bound: call from a blocking thread).
 pub fn fit(data: TrainingData, opts: &TrainOptions) -> Result<Fitted> {
     let params = opts.params()?;
-    let TrainingData { table, set, notes } = data;
+    let TrainingData {
+        table,
+        set,
+        mut notes,
+    } = data;
     let model = learner::metric::train::train(&table, &set, &params, &mut |_| {})
         .map_err(|e| AppError::BadRequest(format!("training failed: {e}")))?;
+    if model.nonzero == 0 {
+        // Cross-validation's one-standard-error rule may prefer the empty metric on little or
+        // noisy data; say so rather than show a report of zeros without comment.
+        notes.push(format!(
+            "every weight is zero at λ = {:.4}: the answers show no style signal the features \
+             capture consistently; collect more answers or give a smaller λ",
+            model.lambda
+        ));
+    }
     let predict = |w: &[f64]| {
         learner::eval::predict(&model, &table, &set.triplets, w)
             .map_err(|e| AppError::Internal(e.to_string()))
