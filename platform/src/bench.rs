@@ -92,8 +92,9 @@ async fn prepare(db: &Db, workers: usize, seconds: u64) -> Result<StudyId> {
             library::insert_item(db, lib, swatch(i)).await?;
         }
     }
-    // A HIT for every worker plus headroom for ~2000 answers/s.
-    let tuples = (workers * 45 + (seconds as usize) * 2000).min(400_000) as u32;
+    // Two HITs for every worker plus headroom for ~6000 answers/s: running out of free
+    // slots mid-phase would turn answers into refused starts and flatter the figures.
+    let tuples = (workers * 90 + (seconds as usize) * 6000).min(400_000) as u32;
     let settings = StudySettings {
         training_questions: 0,
         tuples,
