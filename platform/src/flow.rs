@@ -11,7 +11,7 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 use sha2::Sha256;
-use sqlx::Row;
+use sqlx::{Any, Row, Transaction};
 use utoipa::ToSchema;
 
 use crate::answer_writer::AnswerWrite;
@@ -684,59 +684,21 @@ pub async fn allocate(
         return Ok(0);
     }
     let now = now_ms();
-    // One claim per statement: the first free slot after the previously claimed tuple (in
-    // tuple order), so the claimed tuples are distinct without an anti-join (a worker has one
-    // assignment per study, so it holds no other slot of this study; the unique index on
-    // (tuple_id, worker_id) stays the hard guarantee). PostgreSQL locks only that row and skips
-    // rows other allocators are claiming, so concurrent allocations neither wait on nor
-    // deadlock with each other; the outer `assignment_id IS NULL` is the final guard against a
-    // double fill. On SQLite, `BEGIN IMMEDIATE` already serialises writers.
-    let sql = match db.backend {
-        Backend::Sqlite => {
-            "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
-             WHERE assignment_id IS NULL AND id = (SELECT s.id FROM slots s \
-               WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
-               ORDER BY s.seq, s.replica LIMIT 1) \
-             RETURNING id, tuple_id, seq"
-        }
-        Backend::Postgres => {
-            "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
-             WHERE assignment_id IS NULL AND id = (SELECT s.id FROM slots s \
-               WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
-               ORDER BY s.seq, s.replica LIMIT 1 FOR UPDATE OF s SKIP LOCKED) \
-             RETURNING id, tuple_id, seq"
-        }
-    };
     // Start at a random tuple and wrap around once: concurrent allocators spread over the
     // table instead of all scanning (and, on PostgreSQL, skipping) the same first free rows.
-    let mut claimed: Vec<(i64, i64)> = Vec::with_capacity(wanted);
     let start = rng.random_range(-1..i64::from(s.tuples).max(0));
-    let (mut lower, mut upper) = (start, i64::MAX);
-    let (mut first_seq, mut wrapped) = (None, false);
-    while claimed.len() < wanted {
-        let row = sqlx::query(sql)
-            .bind(assignment.0)
-            .bind(worker.0)
-            .bind(now)
-            .bind(study.id.0)
-            .bind(lower)
-            .bind(upper)
-            .fetch_optional(&mut *tx)
-            .await?;
-        match row {
-            Some(r) => {
-                claimed.push((r.try_get("id")?, r.try_get("tuple_id")?));
-                lower = r.try_get("seq")?;
-                first_seq.get_or_insert(lower);
-            }
-            None if !wrapped => {
-                wrapped = true;
-                upper = first_seq.unwrap_or(start + 1);
-                lower = -1;
-            }
-            None => break,
-        }
-    }
+    let claim = SlotClaim {
+        assignment,
+        worker,
+        study: study.id,
+        now,
+        wanted,
+        start,
+    };
+    let claimed = match db.backend {
+        Backend::Sqlite => claim.many_per_statement(&mut tx).await?,
+        Backend::Postgres => claim.one_per_statement(&mut tx).await?,
+    };
     if claimed.is_empty() {
         tx.rollback().await?;
         return Err(AppError::Conflict(
@@ -747,23 +709,152 @@ pub async fn allocate(
         claimed.iter().map(|&(s, t)| (t, Some(s))).collect();
     questions.extend(controls.iter().map(|&t| (t, None)));
     questions.shuffle(&mut rng);
+    // One multi-row INSERT instead of one statement per question: the transaction holds
+    // SQLite's single writer, and answers queue behind it.
+    let sql = questions_insert_sql(questions.len());
+    let mut insert = sqlx::query(sqlx::AssertSqlSafe(sql));
     for (position, (tuple, slot)) in questions.iter().enumerate() {
         let ask = rng.random_bool(s.reasons_probability);
-        sqlx::query(
-            "INSERT INTO questions (assignment_id, position, tuple_id, slot_id, swapped, ask_reasons) \
-             VALUES ($1, $2, $3, $4, $5, $6)",
-        )
-        .bind(assignment.0)
-        .bind(position as i64)
-        .bind(*tuple)
-        .bind(*slot)
-        .bind(i64::from(rng.random_bool(0.5)))
-        .bind(i64::from(ask))
-        .execute(&mut *tx)
-        .await?;
+        insert = insert
+            .bind(assignment.0)
+            .bind(position as i64)
+            .bind(*tuple)
+            .bind(*slot)
+            .bind(i64::from(rng.random_bool(0.5)))
+            .bind(i64::from(ask));
     }
+    insert.execute(&mut *tx).await?;
     tx.commit().await?;
     Ok(questions.len())
+}
+
+/// Claims up to `wanted` free slots of distinct tuples for one assignment, scanning tuples in
+/// `seq` order from `start` and wrapping around once. A worker has one assignment per study, so
+/// it holds no other slot of this study; the unique index on (tuple_id, worker_id) stays the
+/// hard guarantee of distinct tuples, and the outer `assignment_id IS NULL` the final guard
+/// against a double fill.
+struct SlotClaim {
+    assignment: AssignmentId,
+    worker: WorkerId,
+    study: StudyId,
+    now: i64,
+    wanted: usize,
+    start: i64,
+}
+
+impl SlotClaim {
+    /// SQLite (`BEGIN IMMEDIATE` already serialises writers): one free slot of each of the
+    /// next tuples per statement — two statements per HIT instead of one per question, so the
+    /// single writer, and the answers queued behind it, are free sooner. Returns (slot, tuple).
+    async fn many_per_statement(
+        &self,
+        tx: &mut Transaction<'static, Any>,
+    ) -> Result<Vec<(i64, i64)>> {
+        let mut claimed = Vec::with_capacity(self.wanted);
+        let mut first_seq: Option<i64> = None;
+        for (lower, upper) in [(self.start, i64::MAX), (-1, i64::MIN)] {
+            let missing = self.wanted - claimed.len();
+            if missing == 0 {
+                break;
+            }
+            // The wrap-around pass stops before the first tuple of the first pass.
+            let upper = if upper == i64::MIN {
+                first_seq.unwrap_or(self.start + 1)
+            } else {
+                upper
+            };
+            let rows = sqlx::query(
+                "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
+                 WHERE assignment_id IS NULL AND id IN (SELECT MIN(s.id) FROM slots s \
+                   WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
+                   GROUP BY s.seq ORDER BY s.seq LIMIT $7) \
+                 RETURNING id, tuple_id, seq",
+            )
+            .bind(self.assignment.0)
+            .bind(self.worker.0)
+            .bind(self.now)
+            .bind(self.study.0)
+            .bind(lower)
+            .bind(upper)
+            .bind(missing as i64)
+            .fetch_all(&mut **tx)
+            .await?;
+            for r in &rows {
+                let seq: i64 = r.try_get("seq")?;
+                first_seq = Some(first_seq.map_or(seq, |f| f.min(seq)));
+                claimed.push((r.try_get("id")?, r.try_get("tuple_id")?));
+            }
+        }
+        Ok(claimed)
+    }
+
+    /// PostgreSQL: one claim per statement, the first free slot after the previously claimed
+    /// tuple; the row lock is taken on that slot only and rows other allocators are claiming
+    /// are skipped, so concurrent allocations neither wait on nor deadlock with each other.
+    async fn one_per_statement(
+        &self,
+        tx: &mut Transaction<'static, Any>,
+    ) -> Result<Vec<(i64, i64)>> {
+        let mut claimed = Vec::with_capacity(self.wanted);
+        let (mut lower, mut upper) = (self.start, i64::MAX);
+        let (mut first_seq, mut wrapped) = (None, false);
+        while claimed.len() < self.wanted {
+            let row = sqlx::query(
+                "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
+                 WHERE assignment_id IS NULL AND id = (SELECT s.id FROM slots s \
+                   WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
+                   ORDER BY s.seq, s.replica LIMIT 1 FOR UPDATE OF s SKIP LOCKED) \
+                 RETURNING id, tuple_id, seq",
+            )
+            .bind(self.assignment.0)
+            .bind(self.worker.0)
+            .bind(self.now)
+            .bind(self.study.0)
+            .bind(lower)
+            .bind(upper)
+            .fetch_optional(&mut **tx)
+            .await?;
+            match row {
+                Some(r) => {
+                    claimed.push((r.try_get("id")?, r.try_get("tuple_id")?));
+                    lower = r.try_get("seq")?;
+                    first_seq.get_or_insert(lower);
+                }
+                None if !wrapped => {
+                    wrapped = true;
+                    upper = first_seq.unwrap_or(self.start + 1);
+                    lower = -1;
+                }
+                None => break,
+            }
+        }
+        Ok(claimed)
+    }
+}
+
+/// `INSERT INTO questions … VALUES ($1…$6), ($7…$12), …` for `rows` rows. Only placeholders are
+/// generated here; every value is bound (a HIT has at most a few hundred questions, far below
+/// either database's parameter limit).
+fn questions_insert_sql(rows: usize) -> String {
+    let mut sql = String::from(
+        "INSERT INTO questions (assignment_id, position, tuple_id, slot_id, swapped, ask_reasons) VALUES ",
+    );
+    for row in 0..rows {
+        let p = row * 6;
+        if row > 0 {
+            sql.push_str(", ");
+        }
+        sql.push_str(&format!(
+            "(${}, ${}, ${}, ${}, ${}, ${})",
+            p + 1,
+            p + 2,
+            p + 3,
+            p + 4,
+            p + 5,
+            p + 6
+        ));
+    }
+    sql
 }
 
 /// An answer to one HIT question.
@@ -1199,6 +1290,20 @@ pub async fn study_of(db: &Db, a: &Assignment) -> Result<Study> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn questions_insert_numbers_every_placeholder_once() {
+        let sql = questions_insert_sql(3);
+        assert!(sql.ends_with("($13, $14, $15, $16, $17, $18)"), "{sql}");
+        for n in 1..=18 {
+            assert_eq!(
+                sql.matches(&format!("${n},")).count() + sql.matches(&format!("${n})")).count(),
+                1,
+                "${n}"
+            );
+        }
+        assert!(!sql.contains("$19"));
+    }
 
     #[test]
     fn codes_depend_on_secret_kind_and_assignment() {
