@@ -13,6 +13,25 @@ use serde_json::{Value, json};
 
 use crate::{binary, fixture};
 
+/// Declares the same async scenario as a SQLite test and a PostgreSQL test (skipped, passing,
+/// when `TEST_POSTGRES_URL` is unset; `scripts/test` always sets it).
+#[macro_export]
+macro_rules! both_databases {
+    ($scenario:ident, $sqlite:ident, $postgres:ident) => {
+        #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+        async fn $sqlite() {
+            $scenario($crate::platform::sqlite_db()).await;
+        }
+
+        #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+        async fn $postgres() {
+            if let Some(db) = $crate::platform::postgres_db().await {
+                $scenario(db).await;
+            }
+        }
+    };
+}
+
 /// The styles of the fixture set.
 pub const STYLES: &[&str] = &["emojione-monotone", "fluent-emoji", "noto", "twemoji"];
 

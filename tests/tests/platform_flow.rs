@@ -3,25 +3,9 @@
 
 use std::collections::{HashMap, HashSet};
 
+use e2e::both_databases;
 use e2e::platform::*;
 use serde_json::{Value, json};
-
-/// Declares the same async scenario as a SQLite test and a PostgreSQL test.
-macro_rules! both_databases {
-    ($scenario:ident, $sqlite:ident, $postgres:ident) => {
-        #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-        async fn $sqlite() {
-            $scenario(sqlite_db()).await;
-        }
-
-        #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-        async fn $postgres() {
-            if let Some(db) = postgres_db().await {
-                $scenario(db).await;
-            }
-        }
-    };
-}
 
 /// Every question object a worker receives has exactly the same four keys, so a hidden control
 /// cannot be told apart; no `expected` answer appears outside training feedback.

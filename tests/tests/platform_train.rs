@@ -6,24 +6,9 @@
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
+use e2e::both_databases;
 use e2e::platform::*;
 use serde_json::{Value, json};
-
-macro_rules! both_databases {
-    ($scenario:ident, $sqlite:ident, $postgres:ident) => {
-        #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-        async fn $sqlite() {
-            $scenario(sqlite_db()).await;
-        }
-
-        #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-        async fn $postgres() {
-            if let Some(db) = postgres_db().await {
-                $scenario(db).await;
-            }
-        }
-    };
-}
 
 both_databases!(
     train_from_answers,
@@ -31,31 +16,17 @@ both_databases!(
     train_from_answers_postgres
 );
 
-/// Item name → raw feature vector, read straight from the database.
-async fn features_by_name(db_url: &str) -> HashMap<String, Vec<f64>> {
+/// (item id, item name, raw feature vector) of every item, read straight from the database.
+async fn stored_features(db_url: &str) -> Vec<(i64, String, Vec<f64>)> {
     sqlx::any::install_default_drivers();
     let pool = sqlx::AnyPool::connect(db_url).await.expect("connect");
-    let rows: Vec<(String, String)> = sqlx::query_as("SELECT name, features FROM items")
+    let rows: Vec<(i64, String, String)> = sqlx::query_as("SELECT id, name, features FROM items")
         .fetch_all(&pool)
         .await
         .expect("items");
     pool.close().await;
     rows.into_iter()
-        .map(|(name, f)| (name, serde_json::from_str(&f).expect("features JSON")))
-        .collect()
-}
-
-/// Item id → raw feature vector.
-async fn features_by_id(db_url: &str) -> HashMap<i64, Vec<f64>> {
-    sqlx::any::install_default_drivers();
-    let pool = sqlx::AnyPool::connect(db_url).await.expect("connect");
-    let rows: Vec<(i64, String)> = sqlx::query_as("SELECT id, features FROM items")
-        .fetch_all(&pool)
-        .await
-        .expect("items");
-    pool.close().await;
-    rows.into_iter()
-        .map(|(id, f)| (id, serde_json::from_str(&f).expect("features JSON")))
+        .map(|(id, name, f)| (id, name, serde_json::from_str(&f).expect("features JSON")))
         .collect()
 }
 
@@ -200,7 +171,13 @@ async fn train_from_answers(db: TestDb) {
     // Raters who judge by colour: each answers with the candidate nearer to A in the 15 colour
     // features (standardised over the library), 90% of the time. The fitted metric must find it.
     let styles = item_styles(&db.url).await;
-    let rater = ColourRater::new(&features_by_id(&db.url).await);
+    let item_features = stored_features(&db.url).await;
+    let rater = ColourRater::new(
+        &item_features
+            .iter()
+            .map(|(id, _, f)| (*id, f.clone()))
+            .collect(),
+    );
     const WORKERS: i64 = 20;
     for i in 0..WORKERS {
         let token = start_worker(&c, &base, study, &format!("train-{i}")).await;
@@ -357,7 +334,10 @@ async fn train_from_answers(db: TestDb) {
         .text()
         .await
         .expect("csv");
-    let features = features_by_name(&db.url).await;
+    let features: HashMap<String, Vec<f64>> = item_features
+        .into_iter()
+        .map(|(_, name, f)| (name, f))
+        .collect();
     let ours = agreement(&model_json, &triplets_csv, &features);
     let stored = model["train_accuracy"].as_f64().expect("train accuracy");
     assert!(
