@@ -451,6 +451,18 @@ pub async fn answer_all(
     }
 }
 
+/// GET `url` with the admin session `cookie`; asserts 200 and returns the body.
+pub async fn admin_text(c: &reqwest::Client, url: &str, cookie: &str) -> String {
+    let resp = c
+        .get(url)
+        .header("cookie", cookie)
+        .send()
+        .await
+        .expect("admin GET");
+    assert_eq!(resp.status().as_u16(), 200, "GET {url}");
+    resp.text().await.expect("body")
+}
+
 /// Logs in as the test admin; returns (cookie header value, CSRF token).
 pub async fn admin_login(c: &reqwest::Client, base: &str) -> (String, String) {
     let resp = c

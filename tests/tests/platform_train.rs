@@ -325,15 +325,12 @@ async fn train_from_answers(db: TestDb) {
     assert_eq!(model_json["lambda"], model["lambda"]);
 
     // Independent check of the stored agreement on the exported answers.
-    let triplets_csv = c
-        .get(format!("{base}/admin/studies/{study}/export/triplets.csv"))
-        .header("cookie", &cookie)
-        .send()
-        .await
-        .expect("export")
-        .text()
-        .await
-        .expect("csv");
+    let triplets_csv = admin_text(
+        &c,
+        &format!("{base}/admin/studies/{study}/export/triplets.csv"),
+        &cookie,
+    )
+    .await;
     let features: HashMap<String, Vec<f64>> = item_features
         .into_iter()
         .map(|(_, name, f)| (name, f))
@@ -361,15 +358,7 @@ async fn train_from_answers(db: TestDb) {
     assert!(held_out > 0.65, "held-out {held_out}");
 
     // The dashboard lists it with its report link.
-    let page = c
-        .get(format!("{base}/admin/studies/{study}"))
-        .header("cookie", &cookie)
-        .send()
-        .await
-        .expect("dashboard")
-        .text()
-        .await
-        .expect("html");
+    let page = admin_text(&c, &format!("{base}/admin/studies/{study}"), &cookie).await;
     assert!(page.contains(&format!("/admin/studies/{study}/models/{model_id}/report/")));
 
     // `platform train` with a fixed λ, writing the report to a folder.
