@@ -750,42 +750,53 @@ impl SlotClaim {
         &self,
         tx: &mut Transaction<'static, Any>,
     ) -> Result<Vec<(i64, i64)>> {
-        let mut claimed = Vec::with_capacity(self.wanted);
-        let mut first_seq: Option<i64> = None;
-        for (lower, upper) in [(self.start, i64::MAX), (-1, i64::MIN)] {
-            let missing = self.wanted - claimed.len();
-            if missing == 0 {
-                break;
-            }
-            // The wrap-around pass stops before the first tuple of the first pass.
-            let upper = if upper == i64::MIN {
-                first_seq.unwrap_or(self.start + 1)
-            } else {
-                upper
-            };
-            let rows = sqlx::query(
-                "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
-                 WHERE assignment_id IS NULL AND id IN (SELECT MIN(s.id) FROM slots s \
-                   WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
-                   GROUP BY s.seq ORDER BY s.seq LIMIT $7) \
-                 RETURNING id, tuple_id, seq",
-            )
-            .bind(self.assignment.0)
-            .bind(self.worker.0)
-            .bind(self.now)
-            .bind(self.study.0)
-            .bind(lower)
-            .bind(upper)
-            .bind(missing as i64)
-            .fetch_all(&mut **tx)
+        let mut claimed = self
+            .claim_range(tx, self.start, i64::MAX, self.wanted)
             .await?;
-            for r in &rows {
-                let seq: i64 = r.try_get("seq")?;
-                first_seq = Some(first_seq.map_or(seq, |f| f.min(seq)));
-                claimed.push((r.try_get("id")?, r.try_get("tuple_id")?));
-            }
+        if claimed.len() < self.wanted {
+            // Wrap around: from the first tuple up to where the first pass began.
+            let upper = claimed
+                .iter()
+                .map(|&(_, _, seq)| seq)
+                .min()
+                .unwrap_or(self.start + 1);
+            let missing = self.wanted - claimed.len();
+            claimed.extend(self.claim_range(tx, -1, upper, missing).await?);
         }
-        Ok(claimed)
+        Ok(claimed
+            .into_iter()
+            .map(|(slot, tuple, _)| (slot, tuple))
+            .collect())
+    }
+
+    /// One free slot of each of the first `limit` tuples with `lower < seq < upper` (SQLite).
+    /// Returns (slot, tuple, seq).
+    async fn claim_range(
+        &self,
+        tx: &mut Transaction<'static, Any>,
+        lower: i64,
+        upper: i64,
+        limit: usize,
+    ) -> Result<Vec<(i64, i64, i64)>> {
+        let rows = sqlx::query(
+            "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
+             WHERE assignment_id IS NULL AND id IN (SELECT MIN(s.id) FROM slots s \
+               WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
+               GROUP BY s.seq ORDER BY s.seq LIMIT $7) \
+             RETURNING id, tuple_id, seq",
+        )
+        .bind(self.assignment.0)
+        .bind(self.worker.0)
+        .bind(self.now)
+        .bind(self.study.0)
+        .bind(lower)
+        .bind(upper)
+        .bind(limit as i64)
+        .fetch_all(&mut **tx)
+        .await?;
+        rows.iter()
+            .map(|r| Ok((r.try_get("id")?, r.try_get("tuple_id")?, r.try_get("seq")?)))
+            .collect()
     }
 
     /// PostgreSQL: one claim per statement, the first free slot after the previously claimed
