@@ -68,14 +68,70 @@ pub async fn create_admin(db: &Db, username: &str, password: &str) -> Result<Adm
         .bind(username)
         .fetch_one(&db.pool)
         .await?;
+    // A new password lifts a login lock-out.
+    clear_failures(db, username).await?;
     Ok(AdminId(row.try_get("id")?))
 }
 
+/// Failed logins of one username within [`LOGIN_WINDOW_MS`] after which further attempts are
+/// refused until the window has passed (password guessing gets ~40 tries an hour).
+pub const MAX_LOGIN_FAILURES: i64 = 10;
+
+/// The throttling window.
+pub const LOGIN_WINDOW_MS: i64 = 15 * 60 * 1000;
+
+/// Refuses a login when the username has [`MAX_LOGIN_FAILURES`] recent failures. Counted per
+/// username, in the database (not per client address, which a load balancer hides); the
+/// price is that someone can hold an account's login shut for the window, which
+/// `platform admin create` (a password reset) lifts.
+async fn check_throttle(db: &Db, username: &str) -> Result<()> {
+    let row = sqlx::query(
+        "SELECT COUNT(*) AS n, MIN(at) AS first FROM login_failures WHERE username = $1 AND at > $2",
+    )
+    .bind(username)
+    .bind(now_ms() - LOGIN_WINDOW_MS)
+    .fetch_one(&db.pool)
+    .await?;
+    let failures: i64 = row.try_get("n")?;
+    if failures >= MAX_LOGIN_FAILURES {
+        let first: Option<i64> = row.try_get("first")?;
+        let wait_ms = first.map_or(LOGIN_WINDOW_MS, |f| f + LOGIN_WINDOW_MS - now_ms());
+        return Err(AppError::TooManyRequests(format!(
+            "too many failed logins for this account; try again in {} minute(s)",
+            (wait_ms.max(0) + 59_999) / 60_000
+        )));
+    }
+    Ok(())
+}
+
+async fn record_failure(db: &Db, username: &str) -> Result<()> {
+    sqlx::query("DELETE FROM login_failures WHERE at < $1")
+        .bind(now_ms() - LOGIN_WINDOW_MS)
+        .execute(&db.writer)
+        .await?;
+    sqlx::query("INSERT INTO login_failures (username, at) VALUES ($1, $2)")
+        .bind(username)
+        .bind(now_ms())
+        .execute(&db.writer)
+        .await?;
+    Ok(())
+}
+
+async fn clear_failures(db: &Db, username: &str) -> Result<()> {
+    sqlx::query("DELETE FROM login_failures WHERE username = $1")
+        .bind(username)
+        .execute(&db.writer)
+        .await?;
+    Ok(())
+}
+
 /// Checks credentials; on success creates a session and returns (cookie token, CSRF token).
+/// Refused with [`AppError::TooManyRequests`] after [`MAX_LOGIN_FAILURES`] recent failures.
 pub async fn login(db: &Db, username: &str, password: &str) -> Result<Option<(String, String)>> {
     if username.len() > 64 || password.len() > 1024 {
         return Ok(None);
     }
+    check_throttle(db, username).await?;
     let row = sqlx::query("SELECT id, password_hash FROM admins WHERE username = $1")
         .bind(username)
         .fetch_optional(&db.pool)
@@ -101,8 +157,10 @@ pub async fn login(db: &Db, username: &str, password: &str) -> Result<Option<(St
     .await
     .map_err(AppError::internal)?;
     let Some(id) = id.filter(|_| ok) else {
+        record_failure(db, username).await?;
         return Ok(None);
     };
+    clear_failures(db, username).await?;
     let token = random_token();
     let csrf = random_token();
     sqlx::query("DELETE FROM sessions WHERE expires_at < $1")

@@ -26,6 +26,9 @@ pub enum AppError {
     /// The body has the wrong content type.
     #[error("{0}")]
     UnsupportedMediaType(String),
+    /// Too many attempts (failed admin logins); retry later.
+    #[error("{0}")]
+    TooManyRequests(String),
     /// The upload or body is too large.
     #[error("{0}")]
     TooLarge(String),
@@ -58,6 +61,7 @@ impl AppError {
             Self::Forbidden(_) => StatusCode::FORBIDDEN,
             Self::Conflict(_) => StatusCode::CONFLICT,
             Self::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
+            Self::TooManyRequests(_) => StatusCode::TOO_MANY_REQUESTS,
             Self::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
             Self::Database(sqlx::Error::PoolTimedOut) => StatusCode::SERVICE_UNAVAILABLE,
             Self::Database(_) | Self::Migrate(_) | Self::Internal(_) => {

@@ -1,5 +1,5 @@
 //! Security and input validation of the real server: admin routes refuse anonymous and
-//! CSRF-less requests, malformed and oversized bodies get 4xx (never 5xx), HTML is escaped,
+//! CSRF-less requests, failed logins are throttled, malformed and oversized bodies get 4xx (never 5xx), HTML is escaped,
 //! crowd-platform parameters are checked, and the OpenAPI document describes the flow.
 
 use e2e::platform::*;
@@ -146,6 +146,47 @@ async fn admin_routes_refuse_anonymous_and_csrf_less_requests() {
         .await
         .expect("form");
     assert_eq!(resp.status().as_u16(), 200);
+}
+
+/// Ten failed logins lock the account's login for the window, even with the right password
+/// and across servers (the count is in the database); a password reset lifts the lock.
+#[tokio::test]
+async fn failed_logins_are_throttled_per_account() {
+    let f = fixture(json!({})).await;
+    let (c, base) = (&f.c, &f.server.base);
+    let login = |password: &'static str| async move {
+        c.post(format!("{base}/admin/login"))
+            .form(&[("username", "admin"), ("password", password)])
+            .send()
+            .await
+            .expect("login")
+    };
+    for _ in 0..10 {
+        assert_eq!(login("wrong password!").await.status().as_u16(), 401);
+    }
+    let locked = login(ADMIN_PASSWORD).await;
+    assert_eq!(
+        locked.status().as_u16(),
+        429,
+        "the right password is refused too"
+    );
+    let page = locked.text().await.expect("body");
+    assert!(page.contains("too many failed logins"), "{page}");
+    // A second server on the same database sees the same count.
+    let other = Server::start(&f.server.db_url);
+    let resp = c
+        .post(other.url("/admin/login"))
+        .form(&[("username", "admin"), ("password", ADMIN_PASSWORD)])
+        .send()
+        .await
+        .expect("login");
+    assert_eq!(resp.status().as_u16(), 429);
+    // Resetting the password (`platform admin create`) lifts the lock.
+    platform_ok(
+        &["admin", "create", "--database-url", &f.server.db_url],
+        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
+    );
+    assert_eq!(login(ADMIN_PASSWORD).await.status().as_u16(), 303);
 }
 
 #[tokio::test]
