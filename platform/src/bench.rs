@@ -254,11 +254,13 @@ pub async fn run(args: BenchArgs) -> Result<()> {
     let base = format!("http://{addr}");
     let state = AppState::new(db.clone(), base.clone(), false, 64 * 1024);
     let server = tokio::spawn(async move { axum::serve(listener, crate::app(state)).await });
-    println!(
+    outln!(
         "backend: {:?}, pool {}, {} s per phase",
-        db.backend, args.max_connections, args.seconds
-    );
-    println!(
+        db.backend,
+        args.max_connections,
+        args.seconds
+    )?;
+    outln!(
         "{:>8} | {:>12} {:>9} {:>9} | {:>12} {:>9} {:>9} {:>7} | {:>8}",
         "workers",
         "healthz/s",
@@ -269,12 +271,12 @@ pub async fn run(args: BenchArgs) -> Result<()> {
         "p99 ms",
         "errors",
         "ratio"
-    );
+    )?;
     for &w in &args.workers {
         let study = prepare(&db, w, args.seconds).await?;
         let h = healthz_phase(&base, w, args.seconds).await;
         let a = answer_phase(db.clone(), &base, study, w, args.seconds).await;
-        println!(
+        outln!(
             "{:>8} | {:>12.0} {:>9.2} {:>9.2} | {:>12.0} {:>9.2} {:>9.2} {:>7} | {:>8.2}",
             w,
             h.per_second,
@@ -285,7 +287,7 @@ pub async fn run(args: BenchArgs) -> Result<()> {
             a.p99_ms,
             a.errors,
             a.per_second / h.per_second
-        );
+        )?;
     }
     server.abort();
     Ok(())

@@ -104,7 +104,7 @@ impl ServerArgs {
             .public_url
             .clone()
             .unwrap_or_else(|| format!("http://{addr}"));
-        println!("listening on http://{addr}");
+        outln!("listening on http://{addr}")?;
         Ok((
             listener,
             AppState::new(db, public, self.secure_cookies, self.max_body_bytes),
@@ -276,12 +276,12 @@ pub async fn run(cli: Cli) -> Result<()> {
         }) => {
             let db = db.connect().await?;
             let report = library::import_paths(&db, &name, &paths, labels.as_deref()).await?;
-            println!(
+            outln!(
                 "imported {} item(s) into '{name}' ({} already present, {} skipped)",
                 report.imported,
                 report.existing,
                 report.skipped.len()
-            );
+            )?;
             for (location, why) in &report.skipped {
                 eprintln!("skipped {location}: {why}");
             }
@@ -329,20 +329,23 @@ pub async fn run(cli: Cli) -> Result<()> {
             }
             let library = library::ensure_existing(&db, &lib).await?;
             let (id, pool) = study::create(&db, &name, library, s).await?;
-            println!(
+            outln!(
                 "study {id}: {} main tuples, {} slots, {} controls, {} training",
-                pool.main, pool.slots, pool.controls, pool.training
-            );
+                pool.main,
+                pool.slots,
+                pool.controls,
+                pool.training
+            )?;
             Ok(())
         }
         Command::Study(StudyCommand::Status { db, id }) => {
             let db = db.connect().await?;
             let s = study::load(&db, id).await?;
             let (d, _) = dashboard::compute(&db, &s).await?;
-            println!(
+            outln!(
                 "{}",
                 serde_json::to_string_pretty(&d).map_err(AppError::internal)?
-            );
+            )?;
             Ok(())
         }
         Command::Export(args) => {
@@ -354,7 +357,7 @@ pub async fn run(cli: Cli) -> Result<()> {
                 include_incomplete: args.include_incomplete,
             };
             let files = export::write_dir(&db, &s, opts, &args.public_url, &args.out).await?;
-            println!("wrote {} to {}", files.join(", "), args.out.display());
+            outln!("wrote {} to {}", files.join(", "), args.out.display())?;
             Ok(())
         }
         Command::Train(args) => {
@@ -368,7 +371,7 @@ pub async fn run(cli: Cli) -> Result<()> {
             let m = train::run(&db, &s, opts).await?;
             let pct =
                 |v: Option<f64>| v.map_or_else(|| "–".into(), |v| format!("{:.1}%", 100.0 * v));
-            println!(
+            outln!(
                 "model {}: {} answers, λ = {:.4}, {} of 169 weights non-zero; agreement with the \
                  answers {} (uniform weights {}), held-out {}",
                 m.id,
@@ -378,9 +381,9 @@ pub async fn run(cli: Cli) -> Result<()> {
                 pct(m.train_accuracy),
                 pct(m.uniform_accuracy),
                 pct(m.cv_accuracy),
-            );
+            )?;
             if let Some(note) = &m.message {
-                println!("note: {note}");
+                outln!("note: {note}")?;
             }
             if let Some(dir) = &args.out {
                 std::fs::create_dir_all(dir)
@@ -390,9 +393,9 @@ pub async fn run(cli: Cli) -> Result<()> {
                     std::fs::write(dir.join(&name), bytes)
                         .map_err(|e| AppError::BadRequest(format!("{}: {e}", dir.display())))?;
                 }
-                println!("report: {}", dir.join("index.html").display());
+                outln!("report: {}", dir.join("index.html").display())?;
             }
-            println!("shown at /admin/studies/{}/models/{}/report/", s.id, m.id);
+            outln!("shown at /admin/studies/{}/models/{}/report/", s.id, m.id)?;
             Ok(())
         }
         Command::Admin(AdminCommand::Create { db, username }) => {
@@ -403,9 +406,9 @@ pub async fn run(cli: Cli) -> Result<()> {
             };
             admin::create_admin(&db, &username, &password).await?;
             if generated {
-                println!("admin '{username}' password (shown once): {password}");
+                outln!("admin '{username}' password (shown once): {password}")?;
             } else {
-                println!("admin '{username}' created");
+                outln!("admin '{username}' created")?;
             }
             Ok(())
         }

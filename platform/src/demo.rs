@@ -48,12 +48,12 @@ pub async fn setup(db: &Db, fixtures: Option<PathBuf>) -> Result<(Study, Option<
             labels.exists().then_some(labels.as_path()),
         )
         .await?;
-        println!(
+        outln!(
             "imported {} items from {} ({} skipped)",
             report.imported,
             fixtures.display(),
             report.skipped.len()
-        );
+        )?;
     }
     let existing =
         sqlx::query("SELECT id FROM studies WHERE name = $1 ORDER BY created_at LIMIT 1")
@@ -227,41 +227,42 @@ pub async fn run(mut args: DemoArgs) -> Result<()> {
     let (study, password) = setup(&db, args.fixtures.clone()).await?;
     if args.simulate > 0 {
         let report = simulate(&db, &study, args.simulate, crate::db::now_ms() as u64).await?;
-        println!(
+        outln!(
             "simulated {} honest worker(s) and {} spammer(s)",
-            report.honest, report.spammers
-        );
+            report.honest,
+            report.spammers
+        )?;
         // The simulated answers are enough to fit the metric; a failure here (too few
         // answers for cross-validation) is reported, not fatal.
         match crate::train::run(&db, &study, crate::train::TrainOptions::default()).await {
-            Ok(m) => println!(
+            Ok(m) => outln!(
                 "trained the style metric on {} answers: {} of 169 weights non-zero (report on the \
                  study's admin page)",
                 m.triplets.unwrap_or(0),
                 m.nonzero.unwrap_or(0)
             ),
-            Err(e) => println!("style metric not trained: {e}"),
-        }
+            Err(e) => outln!("style metric not trained: {e}"),
+        }?;
     }
     let (listener, state) = args.server.bind(db).await?;
     let base = state.settings.public_url.trim_end_matches('/').to_string();
     match password {
         Some(p) => {
-            println!("admin login: {base}/admin/login  user: admin  password (shown once): {p}")
+            outln!("admin login: {base}/admin/login  user: admin  password (shown once): {p}")
         }
-        None => println!(
+        None => outln!(
             "admin login: {base}/admin/login  (password was printed when the account was created; \
              reset it with `platform admin create`)"
         ),
-    }
-    println!(
+    }?;
+    outln!(
         "worker link: {base}/s/{}?participant=demo-worker-1",
         study.id
-    );
-    println!(
+    )?;
+    outln!(
         "MTurk sandbox test: {base}/s/{}?assignmentId=A1&hitId=H1&workerId=W1&turkSubmitTo=https://workersandbox.mturk.com",
         study.id
-    );
+    )?;
     if args.no_serve {
         return Ok(());
     }

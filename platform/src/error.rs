@@ -38,6 +38,9 @@ pub enum AppError {
     /// A migration failure.
     #[error("migration error: {0}")]
     Migrate(#[from] sqlx::migrate::MigrateError),
+    /// Writing to standard output failed (the command line; e.g. a closed pipe).
+    #[error("cannot write to standard output: {0}")]
+    Stdout(#[source] std::io::Error),
     /// Anything else internal; details are logged, not shown.
     #[error("internal error: {0}")]
     Internal(String),
@@ -64,7 +67,7 @@ impl AppError {
             Self::TooManyRequests(_) => StatusCode::TOO_MANY_REQUESTS,
             Self::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
             Self::Database(sqlx::Error::PoolTimedOut) => StatusCode::SERVICE_UNAVAILABLE,
-            Self::Database(_) | Self::Migrate(_) | Self::Internal(_) => {
+            Self::Database(_) | Self::Migrate(_) | Self::Internal(_) | Self::Stdout(_) => {
                 StatusCode::INTERNAL_SERVER_ERROR
             }
         }
@@ -74,7 +77,9 @@ impl AppError {
     pub fn public_message(&self) -> String {
         match self {
             Self::Database(sqlx::Error::PoolTimedOut) => "server busy, retry".into(),
-            Self::Database(_) | Self::Migrate(_) | Self::Internal(_) => "internal error".into(),
+            Self::Database(_) | Self::Migrate(_) | Self::Internal(_) | Self::Stdout(_) => {
+                "internal error".into()
+            }
             other => other.to_string(),
         }
     }

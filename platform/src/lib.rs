@@ -22,6 +22,15 @@ use axum::extract::DefaultBodyLimit;
 use axum::http::{HeaderValue, header};
 use tower_http::set_header::SetResponseHeaderLayer;
 
+/// `println!` that returns [`error::AppError::Stdout`] instead of panicking when standard
+/// output is closed (`platform study status 1 | head -c 10`); `main` ends quietly on that.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*).map_err($crate::error::AppError::Stdout)
+    }};
+}
+
 pub mod admin;
 pub mod answer_writer;
 pub mod api;

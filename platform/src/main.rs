@@ -7,6 +7,11 @@ fn main() -> anyhow::Result<()> {
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()?;
-    runtime.block_on(platform::cli::run(cli))?;
-    Ok(())
+    match runtime.block_on(platform::cli::run(cli)) {
+        // The reader went away (`| head`): like other Unix tools, stop without a message.
+        Err(platform::error::AppError::Stdout(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+            Ok(())
+        }
+        other => Ok(other?),
+    }
 }

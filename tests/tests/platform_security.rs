@@ -507,3 +507,28 @@ async fn html_is_escaped_and_openapi_describes_the_flow() {
     let (status, _) = send(c.get(format!("{base}/healthz"))).await;
     assert_eq!(status, 200);
 }
+
+/// `platform … | head -0`: a reader that goes away ends the command quietly (no panic), after
+/// the work is done.
+#[test]
+fn closed_stdout_is_not_a_panic() {
+    let db = sqlite_db();
+    let mut child = std::process::Command::new(e2e::binary("platform", "platform"))
+        .args(["admin", "create", "--database-url", &db.url])
+        .env("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn platform");
+    drop(child.stdout.take());
+    let output = child.wait_with_output().expect("wait");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(output.status.success(), "{:?}: {stderr}", output.status);
+    // The account exists: the same command on a live pipe reports the update.
+    let again = platform_ok(
+        &["admin", "create", "--database-url", &db.url],
+        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
+    );
+    assert!(again.contains("admin 'admin'"), "{again}");
+}
