@@ -778,25 +778,38 @@ impl SlotClaim {
         upper: i64,
         limit: usize,
     ) -> Result<Vec<(i64, i64, i64)>> {
-        let rows = sqlx::query(
+        let query = sqlx::query(
             "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
              WHERE assignment_id IS NULL AND id IN (SELECT MIN(s.id) FROM slots s \
                WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
                GROUP BY s.seq ORDER BY s.seq LIMIT $7) \
              RETURNING id, tuple_id, seq",
-        )
-        .bind(self.assignment.0)
-        .bind(self.worker.0)
-        .bind(self.now)
-        .bind(self.study.0)
-        .bind(lower)
-        .bind(upper)
-        .bind(limit as i64)
-        .fetch_all(&mut **tx)
-        .await?;
+        );
+        let rows = self
+            .bind_claim(query, lower, upper)
+            .bind(limit as i64)
+            .fetch_all(&mut **tx)
+            .await?;
         rows.iter()
             .map(|r| Ok((r.try_get("id")?, r.try_get("tuple_id")?, r.try_get("seq")?)))
             .collect()
+    }
+
+    /// Binds `$1..$6` of both claim statements: who claims, when, in which study, and the
+    /// open `seq` range.
+    fn bind_claim<'q>(
+        &self,
+        query: sqlx::query::Query<'q, Any, sqlx::any::AnyArguments>,
+        lower: i64,
+        upper: i64,
+    ) -> sqlx::query::Query<'q, Any, sqlx::any::AnyArguments> {
+        query
+            .bind(self.assignment.0)
+            .bind(self.worker.0)
+            .bind(self.now)
+            .bind(self.study.0)
+            .bind(lower)
+            .bind(upper)
     }
 
     /// PostgreSQL: one claim per statement, the first free slot after the previously claimed
@@ -810,21 +823,17 @@ impl SlotClaim {
         let (mut lower, mut upper) = (self.start, i64::MAX);
         let (mut first_seq, mut wrapped) = (None, false);
         while claimed.len() < self.wanted {
-            let row = sqlx::query(
+            let query = sqlx::query(
                 "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
                  WHERE assignment_id IS NULL AND id = (SELECT s.id FROM slots s \
                    WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
                    ORDER BY s.seq, s.replica LIMIT 1 FOR UPDATE OF s SKIP LOCKED) \
                  RETURNING id, tuple_id, seq",
-            )
-            .bind(self.assignment.0)
-            .bind(self.worker.0)
-            .bind(self.now)
-            .bind(self.study.0)
-            .bind(lower)
-            .bind(upper)
-            .fetch_optional(&mut **tx)
-            .await?;
+            );
+            let row = self
+                .bind_claim(query, lower, upper)
+                .fetch_optional(&mut **tx)
+                .await?;
             match row {
                 Some(r) => {
                     claimed.push((r.try_get("id")?, r.try_get("tuple_id")?));
