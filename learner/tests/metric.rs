@@ -400,3 +400,152 @@ fn degenerate_single_triplet_fit_converges_quickly() {
     );
     assert!(m.solver.objective.is_finite() && m.weights.iter().all(|w| w.is_finite()));
 }
+
+/// The fixture problem of `argmin_and_nlopt_agree_on_the_fixtures`: standardised features, the
+/// triplets, and the uniform start.
+fn fixture_problem() -> (Vec<f64>, usize, Vec<Triplet>, Vec<f64>) {
+    use learner::metric::model::{fit_scaling, standardise};
+    use learner::metric::train::fit_uniform_scale;
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/metric");
+    let table = learner::table::read_features(&dir.join("fixture-features.csv")).unwrap();
+    let set =
+        learner::triplets::read_triplets(&dir.join("fixture-triplets.csv"), &table, false).unwrap();
+    let (mean, scale) = fit_scaling(&table, &[]);
+    let std = standardise(&table, &mean, &scale);
+    let c = fit_uniform_scale(&std.x, std.dim, &set.triplets);
+    let w0 = vec![c; std.dim];
+    (std.x, std.dim, set.triplets, w0)
+}
+
+#[test]
+fn rescaling_reaches_the_same_optimum_in_fewer_evaluations_on_real_features() {
+    let (x, dim, triplets, w0) = fixture_problem();
+    let obj = TripletObjective::new(&x, dim, &triplets, 10.0, DEFAULT_SMOOTHING);
+    let tight = LbfgsParams {
+        ftol: 1e-13,
+        pgtol: 1e-8,
+        max_iters: 3000,
+        ..LbfgsParams::default()
+    };
+    let plain = LbfgsParams {
+        rescale_every: 0,
+        ..tight
+    };
+    let (ws, is) = minimise_argmin(obj, w0.clone(), &tight, &mut |_, _| {}).unwrap();
+    let (wp, ip) = minimise_argmin(obj, w0, &plain, &mut |_, _| {}).unwrap();
+    assert!(is.converged && ip.converged, "{is:?} {ip:?}");
+    assert_eq!(ip.curvature_passes, 0);
+    assert!(is.curvature_passes >= 1);
+    let rel = (is.objective - ip.objective).abs() / ip.objective;
+    assert!(
+        rel <= 1e-6,
+        "objective {} vs {}",
+        is.objective,
+        ip.objective
+    );
+    let dw = ws
+        .iter()
+        .zip(&wp)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(dw <= 1e-3, "weights differ by {dw}");
+    // Real features are badly scaled: the diagonal preconditioning must pay for its passes.
+    assert!(
+        is.evaluations + is.curvature_passes < ip.evaluations,
+        "rescaled {} + {} passes vs plain {}",
+        is.evaluations,
+        is.curvature_passes,
+        ip.evaluations
+    );
+}
+
+#[test]
+fn curvature_diagonal_matches_finite_differences_of_the_margins() {
+    use learner::metric::objective::sigmoid;
+    let sim = simulate(&SimulationParams {
+        items: 80,
+        dim: 10,
+        support: 4,
+        triplets: 300,
+        ..SimulationParams::default()
+    })
+    .unwrap();
+    let obj = TripletObjective::new(&sim.features, sim.dim, &sim.triplets, 1.0, 1e-8);
+    let w: Vec<f64> = (0..sim.dim).map(|k| 0.2 + 0.1 * k as f64).collect();
+    let h = obj.curvature_diagonal(&w).unwrap();
+    let m0 = obj.margins(&w);
+    for k in 0..sim.dim {
+        // Central differences of every margin give ∂m_i/∂w_k independently of the objective code.
+        let step = 1e-6;
+        let (mut wp, mut wm) = (w.clone(), w.clone());
+        wp[k] += step;
+        wm[k] -= step;
+        let (mp, mm) = (obj.margins(&wp), obj.margins(&wm));
+        let expected: f64 = (0..m0.len())
+            .map(|i| {
+                let j = (mp[i] - mm[i]) / (2.0 * step);
+                let s = sigmoid(m0[i]);
+                s * (1.0 - s) * j * j
+            })
+            .sum();
+        assert!(
+            (h[k] - expected).abs() <= 1e-5 * expected.abs().max(1e-3),
+            "k={k}: {} vs {expected}",
+            h[k]
+        );
+    }
+}
+
+#[test]
+fn curvature_memory_carried_along_the_lambda_path_keeps_the_optimum() {
+    use learner::metric::solver::{CurvatureMemory, SolverKind, minimise_warm};
+    let (x, dim, triplets, w0) = fixture_problem();
+    let params = LbfgsParams {
+        ftol: 1e-13,
+        pgtol: 1e-8,
+        max_iters: 3000,
+        ..LbfgsParams::default()
+    };
+    let first = TripletObjective::new(&x, dim, &triplets, 3.0, DEFAULT_SMOOTHING);
+    let second = TripletObjective::new(&x, dim, &triplets, 10.0, DEFAULT_SMOOTHING);
+    let mut memory = CurvatureMemory::default();
+    let (w1, _) = minimise_warm(
+        SolverKind::Argmin,
+        first,
+        w0,
+        &params,
+        &mut memory,
+        &mut |_, _| {},
+    )
+    .unwrap();
+    let (warm_w, warm) = minimise_warm(
+        SolverKind::Argmin,
+        second,
+        w1.clone(),
+        &params,
+        &mut memory,
+        &mut |_, _| {},
+    )
+    .unwrap();
+    let (cold_w, cold) = minimise_argmin(second, w1, &params, &mut |_, _| {}).unwrap();
+    assert!(warm.converged && cold.converged, "{warm:?} {cold:?}");
+    let rel = (warm.objective - cold.objective).abs() / cold.objective;
+    assert!(
+        rel <= 1e-6,
+        "objective {} vs {}",
+        warm.objective,
+        cold.objective
+    );
+    let dw = warm_w
+        .iter()
+        .zip(&cold_w)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(dw <= 1e-3, "weights differ by {dw}");
+    let kkt = {
+        let mut g = vec![0.0; dim];
+        second.eval(&warm_w, &mut g);
+        projected_gradient_norm(&warm_w, &g)
+    };
+    assert!(kkt <= 1e-4, "projected gradient {kkt}");
+}

@@ -24,7 +24,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::objective::{DEFAULT_SMOOTHING, FusedObjective, TripletObjective};
-use super::solver::{LbfgsParams, SolverKind, minimise};
+use super::solver::{CurvatureMemory, LbfgsParams, SolverKind, minimise_warm};
 use crate::triplets::Triplet;
 use crate::{Error, Result};
 
@@ -58,6 +58,9 @@ pub struct CvReport {
     pub rows: Vec<CvRow>,
     /// The λ chosen.
     pub chosen: f64,
+    /// Passes over the training data in all fits (fused evaluations plus curvature passes).
+    #[serde(default)]
+    pub evaluations: u64,
 }
 
 /// The default grid for `n` training triplets: `n · r`, `r` log-spaced in `[1e-5, 1e-1]`.
@@ -200,6 +203,7 @@ pub fn cross_validate(
     let folds = assign_folds(triplets, params.folds, params.by_worker, params.seed)?;
     let total = params.folds * grid.len();
     let mut done = 0;
+    let mut evaluations = 0;
     // fold_scores[λ index] = per-fold (log-loss, accuracy, non-zero), in fold order.
     let mut fold_scores: Vec<Vec<(f64, f64, usize)>> = vec![Vec::new(); grid.len()];
     for f in 0..params.folds {
@@ -216,10 +220,21 @@ pub fn cross_validate(
             .map(|(t, _)| *t)
             .collect();
         let mut w = w0.to_vec();
+        // The fold's data term is the same for every λ (only the linear L1 term changes), so
+        // the solver's curvature memory carries over along the path, like the weights.
+        let mut memory = CurvatureMemory::default();
         for (li, &lambda) in grid.iter().enumerate() {
             let obj = TripletObjective::new(x, dim, &train, lambda, DEFAULT_SMOOTHING);
             debug_assert_eq!(obj.dim(), dim);
-            let (wf, _) = minimise(params.solver, obj, w, &params.lbfgs, &mut |_, _| {})?;
+            let (wf, info) = minimise_warm(
+                params.solver,
+                obj,
+                w,
+                &params.lbfgs,
+                &mut memory,
+                &mut |_, _| {},
+            )?;
+            evaluations += info.evaluations + info.curvature_passes;
             let wz = zero_small(&wf, params.zero_threshold);
             let (loss, acc) = held_out_scores(x, dim, &test, &wz, DEFAULT_SMOOTHING);
             fold_scores[li].push((loss, acc, wz.iter().filter(|v| **v > 0.0).count()));
@@ -261,6 +276,7 @@ pub fn cross_validate(
         grouped_by: if params.by_worker { "worker" } else { "tuple" }.into(),
         rows,
         chosen,
+        evaluations,
     })
 }
 

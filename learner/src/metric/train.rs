@@ -34,8 +34,10 @@ pub struct TrainParams {
     pub solver: SolverKind,
     /// Stopping rules of the final fit.
     pub lbfgs: LbfgsParams,
-    /// Stopping rules of the cross-validation fits. Default: `ftol` 1e-8 — held-out losses of
-    /// neighbouring λ differ by ~1e-3 relative, so solving each fold to 1e-10 only costs time.
+    /// Stopping rules of the cross-validation fits. Default: `ftol` 1e-6 — held-out losses of
+    /// neighbouring λ differ by ≥ 5·10⁻³ relative near the chosen λ, and solving the folds to
+    /// 1e-8 instead moved them by ≤ 4·10⁻⁴ relative (≤ 10⁻⁵ near the chosen λ), never changed
+    /// the choice, and cost 30% more passes (dev set, 50,000 triplets).
     pub cv_lbfgs: LbfgsParams,
     /// Weights below this are set to zero after training. Paper (§5.6): 0.02.
     pub zero_threshold: f64,
@@ -51,7 +53,7 @@ impl Default for TrainParams {
             solver: SolverKind::Argmin,
             lbfgs: LbfgsParams::default(),
             cv_lbfgs: LbfgsParams {
-                ftol: 1e-8,
+                ftol: 1e-6,
                 ..LbfgsParams::default()
             },
             zero_threshold: 0.02,

@@ -565,6 +565,9 @@ pub struct BenchMetricArgs {
     /// Skip the CV run.
     #[arg(long)]
     pub no_cv: bool,
+    /// Skip the NLopt fit (when built with the `nlopt` feature).
+    #[arg(long)]
+    pub no_nlopt: bool,
     /// Write results as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -593,7 +596,7 @@ struct BenchResult {
     scipy: Option<ScipyResult>,
     one_eval_seconds: f64,
     cv_seconds: Option<f64>,
-    cv_fits: usize,
+    cv_passes: u64,
 }
 
 /// A fresh folder under the system temp dir for exported benchmark data.
@@ -692,7 +695,7 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
     };
     let mut fits = Vec::new();
     let mut kinds = vec![SolverKind::Argmin];
-    if cfg!(feature = "nlopt") {
+    if cfg!(feature = "nlopt") && !a.no_nlopt {
         kinds.push(SolverKind::Nlopt);
     }
     for kind in kinds {
@@ -718,13 +721,13 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
         }
         Some(serde_json::from_slice::<ScipyResult>(&out.stdout).context("scipy script output")?)
     };
-    let (cv_seconds, cv_fits) = if a.no_cv {
+    let (cv_seconds, cv_passes) = if a.no_cv {
         (None, 0)
     } else {
         let grid = default_grid(n * 4 / 5, 8);
         let t = Instant::now();
         let pb = bar(40, "5-fold CV × 8 λ");
-        cross_validate(
+        let report = cross_validate(
             &std.x,
             dim,
             &set.triplets,
@@ -742,7 +745,7 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
             &mut |done, _| pb.set_position(done as u64),
         )?;
         pb.finish_and_clear();
-        (Some(t.elapsed().as_secs_f64()), 40)
+        (Some(t.elapsed().as_secs_f64()), report.evaluations)
     };
     outln!(
         "metric bench: {n} triplets × {dim} features, λ = {lambda}, {threads} threads; one fused \
@@ -750,10 +753,11 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
         one_eval * 1e3
     )?;
     outln!(
-        "{:<28} {:>9} {:>6} {:>10} {:>22} {:>12}",
+        "{:<28} {:>9} {:>6} {:>6} {:>10} {:>22} {:>12}",
         "solver",
         "seconds",
         "evals",
+        "curv",
         "iters",
         "objective",
         "vs argmin"
@@ -761,10 +765,11 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
     let base = fits[0].seconds;
     for f in &fits {
         outln!(
-            "{:<28} {:>9.3} {:>6} {:>10} {:>22.9} {:>11.2}x",
+            "{:<28} {:>9.3} {:>6} {:>6} {:>10} {:>22.9} {:>11.2}x",
             format!("{:?}", f.solver),
             f.seconds,
             f.evaluations,
+            f.curvature_passes,
             f.iterations,
             f.objective,
             f.seconds / base
@@ -772,10 +777,11 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
     }
     if let Some(s) = &scipy {
         outln!(
-            "{:<28} {:>9.3} {:>6} {:>10} {:>22.9} {:>11.2}x   (numpy eval {:.2} ms)",
+            "{:<28} {:>9.3} {:>6} {:>6} {:>10} {:>22.9} {:>11.2}x   (numpy eval {:.2} ms)",
             "SciPy L-BFGS-B",
             s.seconds,
             s.evaluations,
+            0,
             s.iterations,
             s.objective,
             s.seconds / base,
@@ -784,7 +790,7 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
     }
     if let Some(cv) = cv_seconds {
         outln!(
-            "argmin 5-fold CV over 8 λ as in `learner train` ({cv_fits} fits, warm starts, ftol 1e-8): {cv:.2} s"
+            "argmin 5-fold CV over 8 λ as in `learner train` (40 fits, warm starts, ftol 1e-8): {cv:.2} s, {cv_passes} passes over the data"
         )?;
     }
     if let Some(p) = &a.json {
@@ -799,7 +805,7 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
                 scipy,
                 one_eval_seconds: one_eval,
                 cv_seconds,
-                cv_fits,
+                cv_passes,
             },
         )?;
     }
