@@ -43,11 +43,13 @@ impl Plane {
         let (w, h) = (self.width / 2, self.height / 2);
         let mut data = Vec::with_capacity(w * h);
         for y in 0..h {
-            let r0 = &self.data[(2 * y) * self.width..];
-            let r1 = &self.data[(2 * y + 1) * self.width..];
-            for x in 0..w {
-                data.push(0.25 * (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1]));
-            }
+            let r0 = &self.data[(2 * y) * self.width..][..2 * w];
+            let r1 = &self.data[(2 * y + 1) * self.width..][..2 * w];
+            data.extend(
+                r0.chunks_exact(2)
+                    .zip(r1.chunks_exact(2))
+                    .map(|(a, b)| 0.25 * (a[0] + a[1] + b[0] + b[1])),
+            );
         }
         Plane {
             width: w,
