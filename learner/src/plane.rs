@@ -43,11 +43,13 @@ impl Plane {
         let (w, h) = (self.width / 2, self.height / 2);
         let mut data = Vec::with_capacity(w * h);
         for y in 0..h {
-            let r0 = &self.data[(2 * y) * self.width..];
-            let r1 = &self.data[(2 * y + 1) * self.width..];
-            for x in 0..w {
-                data.push(0.25 * (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1]));
-            }
+            let r0 = &self.data[(2 * y) * self.width..][..2 * w];
+            let r1 = &self.data[(2 * y + 1) * self.width..][..2 * w];
+            data.extend(
+                r0.chunks_exact(2)
+                    .zip(r1.chunks_exact(2))
+                    .map(|(a, b)| 0.25 * (a[0] + a[1] + b[0] + b[1])),
+            );
         }
         Plane {
             width: w,
@@ -109,7 +111,8 @@ impl Plane {
 /// era of tools.
 pub fn luma(image: &RgbImage) -> Plane {
     let data = image
-        .pixels()
+        .as_raw()
+        .chunks_exact(3)
         .map(|p| (0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32) / 255.0)
         .collect();
     Plane {
@@ -121,17 +124,21 @@ pub fn luma(image: &RgbImage) -> Plane {
 
 /// Halves an RGB image by averaging 2x2 blocks (rounding to nearest).
 pub fn half_rgb(image: &RgbImage) -> RgbImage {
-    let (w, h) = (image.width() / 2, image.height() / 2);
-    RgbImage::from_fn(w, h, |x, y| {
-        let mut acc = [0u32; 3];
-        for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-            let p = image.get_pixel(2 * x + dx, 2 * y + dy);
+    let (w, h) = (image.width() as usize / 2, image.height() as usize / 2);
+    let stride = 3 * image.width() as usize;
+    let raw = image.as_raw();
+    let mut data = Vec::with_capacity(3 * w * h);
+    for y in 0..h {
+        let top = &raw[2 * y * stride..][..6 * w];
+        let bottom = &raw[(2 * y + 1) * stride..][..6 * w];
+        for (t, b) in top.chunks_exact(6).zip(bottom.chunks_exact(6)) {
             for c in 0..3 {
-                acc[c] += p[c] as u32;
+                let sum = t[c] as u32 + t[c + 3] as u32 + b[c] as u32 + b[c + 3] as u32;
+                data.push(((sum + 2) / 4) as u8);
             }
         }
-        image::Rgb(acc.map(|v| ((v + 2) / 4) as u8))
-    })
+    }
+    RgbImage::from_raw(w as u32, h as u32, data).expect("3 bytes per pixel of a w x h image")
 }
 
 #[cfg(test)]
@@ -146,6 +153,30 @@ mod tests {
             data: vec![0., 1., 2., 2., 1., 2., 4., 4.],
         };
         assert_eq!(p.half().data, vec![1.0, 3.0]);
+    }
+
+    #[test]
+    fn half_rgb_rounds_block_means() {
+        for (w, h) in [(7u32, 5u32), (1, 1), (2, 3), (10, 4)] {
+            let img = RgbImage::from_fn(w, h, |x, y| {
+                image::Rgb([
+                    (x * 37 + y * 11) as u8,
+                    (x * y * 13) as u8,
+                    255 - (x + y) as u8,
+                ])
+            });
+            let half = half_rgb(&img);
+            assert_eq!(half.dimensions(), (w / 2, h / 2));
+            for (x, y, p) in half.enumerate_pixels() {
+                for c in 0..3 {
+                    let sum: u32 = [(0, 0), (1, 0), (0, 1), (1, 1)]
+                        .iter()
+                        .map(|&(dx, dy)| img.get_pixel(2 * x + dx, 2 * y + dy)[c] as u32)
+                        .sum();
+                    assert_eq!(p[c] as u32, (sum + 2) / 4);
+                }
+            }
+        }
     }
 
     #[test]

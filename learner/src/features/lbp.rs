@@ -109,12 +109,10 @@ pub fn compute(p: &Prepared, out: &mut [f64]) {
     for y in 0..h {
         for x in 0..w {
             let i = y * w + x;
-            if p.edges.data[i] && p.region.data[i] {
-                edge.add(&grey, w, h, x, y);
-            }
+            let on_edge = p.edges.data[i] && p.region.data[i];
             // The inner boundary of the silhouette (as `Mask::boundary`): a set pixel with a
             // 4-neighbour unset or outside the image.
-            if silhouette[i]
+            let on_contour = silhouette[i]
                 && (x == 0
                     || y == 0
                     || x + 1 == w
@@ -122,15 +120,30 @@ pub fn compute(p: &Prepared, out: &mut [f64]) {
                     || !silhouette[i - 1]
                     || !silhouette[i + 1]
                     || !silhouette[i - w]
-                    || !silhouette[i + w])
-            {
-                contour.add(&grey, w, h, x, y);
+                    || !silhouette[i + w]);
+            if !(on_edge || on_contour) {
+                continue;
+            }
+            // Many contour pixels are also edge pixels: their codes are computed once.
+            let codes = codes_at(&grey, w, h, x, y);
+            if on_edge {
+                edge.add(codes);
+            }
+            if on_contour {
+                contour.add(codes);
             }
         }
     }
     let (edge_out, contour_out) = out.split_at_mut(BINS_PER_SET);
     edge.write_normalised(edge_out);
     contour.write_normalised(contour_out);
+}
+
+/// The riu2 codes of pixel `(x, y)` at the three [`SCALES`].
+#[inline]
+fn codes_at(grey: &[u8], width: usize, height: usize, x: usize, y: usize) -> [u8; 3] {
+    let rings = rings();
+    [0, 1, 2].map(|k| rings[k].code_at(grey, width, height, x, y))
 }
 
 /// The code counts of one pixel set at the three [`SCALES`], concatenated.
@@ -149,13 +162,12 @@ impl Default for Histograms {
 }
 
 impl Histograms {
-    /// Counts the codes of pixel `(x, y)`.
+    /// Counts one pixel's codes at the three scales ([`codes_at`]).
     #[inline]
-    fn add(&mut self, grey: &[u8], width: usize, height: usize, x: usize, y: usize) {
+    fn add(&mut self, codes: [u8; 3]) {
         let mut base = 0;
-        for ring in rings() {
-            let code = ring.code_at(grey, width, height, x, y) as usize;
-            self.counts[base + code] += 1;
+        for (ring, code) in rings().iter().zip(codes) {
+            self.counts[base + code as usize] += 1;
             base += ring.bins();
         }
         self.total += 1;
@@ -207,6 +219,9 @@ pub struct Ring {
     /// `⌊rows⌋`, `⌈rows⌉`, `⌊cols⌉`, `⌈cols⌉` per neighbour. Because the offsets have five
     /// decimals, `⌊y + o⌋ = y + ⌊o⌋` holds exactly in `f64` for every pixel coordinate `y`.
     corners: [[isize; 4]; MAX_POINTS],
+    /// The largest `|corner|`: pixels at least this far from every image border need no
+    /// clamping.
+    reach: usize,
 }
 
 impl Ring {
@@ -232,11 +247,18 @@ impl Ring {
                 cols[k].ceil() as isize,
             ];
         }
+        let reach = corners[..points]
+            .iter()
+            .flatten()
+            .map(|c| c.unsigned_abs())
+            .max()
+            .unwrap_or(0);
         Some(Self {
             points,
             rows,
             cols,
             corners,
+            reach,
         })
     }
 
@@ -265,14 +287,32 @@ impl Ring {
     /// `x < width`, `y < height` and `grey.len() == width * height`.
     #[inline]
     pub fn code_at(&self, grey: &[u8], width: usize, height: usize, x: usize, y: usize) -> u8 {
+        let centre = f64::from(grey[y * width + x]);
+        let reach = self.reach;
+        if x >= reach && y >= reach && x + reach < width && y + reach < height {
+            // Every tap is inside the image: no clamping (the common case, and the hot one).
+            return self.code_with(centre, x, y, |r, c| {
+                f64::from(grey[r as usize * width + c as usize])
+            });
+        }
         let (wmax, hmax) = (width as isize - 1, height as isize - 1);
-        let (yi, xi) = (y as isize, x as isize);
-        let pixel = |r: isize, c: isize| -> f64 {
+        self.code_with(centre, x, y, |r, c| {
             let r = r.clamp(0, hmax) as usize;
             let c = c.clamp(0, wmax) as usize;
             f64::from(grey[r * width + c])
-        };
-        let centre = f64::from(grey[y * width + x]);
+        })
+    }
+
+    /// [`Ring::code_at`] with `pixel(row, col)` reading the (possibly out-of-image) taps.
+    #[inline(always)]
+    fn code_with(
+        &self,
+        centre: f64,
+        x: usize,
+        y: usize,
+        pixel: impl Fn(isize, isize) -> f64,
+    ) -> u8 {
+        let (yi, xi) = (y as isize, x as isize);
         let (yf, xf) = (y as f64, x as f64);
         let mut bits = 0u32;
         for k in 0..self.points {

@@ -165,6 +165,9 @@ struct ScaleInput<'a> {
     /// Gradients of the Canny-smoothed grey plane at this scale.
     dx: &'a [f32],
     dy: &'a [f32],
+    /// `√(dx² + dy²)` per pixel, computed once per scale: refining each ray end samples it at
+    /// nine points.
+    magnitudes: &'a [f32],
     /// Ω at this scale.
     region: &'a [bool],
     /// The silhouette at this scale.
@@ -177,14 +180,16 @@ impl ScaleInput<'_> {
     /// The gradient magnitude at pixel index `i`.
     #[inline]
     fn magnitude(&self, i: usize) -> f32 {
-        (self.dx[i] * self.dx[i] + self.dy[i] * self.dy[i]).sqrt()
+        self.magnitudes[i]
     }
 
     /// The gradient magnitude bilinearly interpolated at `(x, y)`, coordinates clamped.
     fn magnitude_at(&self, x: f32, y: f32) -> f32 {
         let x = x.clamp(0.0, (self.width - 1) as f32);
         let y = y.clamp(0.0, (self.height - 1) as f32);
-        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+        // Clamped to ≥ 0 (or NaN, which both `floor` and this cast send to 0), so the truncating
+        // cast is `floor` without its libm call.
+        let (x0, y0) = (x as usize, y as usize);
         let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
         let (fx, fy) = (x - x0 as f32, y - y0 as f32);
         let w = self.width;
@@ -243,14 +248,16 @@ impl ScaleInput<'_> {
 /// Builds the four scales and calls `f(scale_index, input)` on each, finest first. Stops early
 /// (leaving the rest unvisited) if a scale would be under 3x3 pixels.
 fn for_each_scale(p: &Prepared, mut f: impl FnMut(usize, &ScaleInput)) {
+    let (dx, dy) = (&p.smoothed_gradients.dx.data, &p.smoothed_gradients.dy.data);
     f(
         0,
         &ScaleInput {
             width: p.grey.width,
             height: p.grey.height,
             edges: &p.edges.data,
-            dx: &p.smoothed_gradients.dx.data,
-            dy: &p.smoothed_gradients.dy.data,
+            dx,
+            dy,
+            magnitudes: &magnitudes(dx, dy),
             region: &p.region.data,
             silhouette: &p.silhouette.data,
             unit: 1.0,
@@ -272,6 +279,7 @@ fn for_each_scale(p: &Prepared, mut f: impl FnMut(usize, &ScaleInput)) {
                 edges: &edges.data,
                 dx: &grad.dx.data,
                 dy: &grad.dy.data,
+                magnitudes: &magnitudes(&grad.dx.data, &grad.dy.data),
                 region: &region.data,
                 silhouette: &silhouette.data,
                 unit: (1u32 << s) as f64,
@@ -283,6 +291,14 @@ fn for_each_scale(p: &Prepared, mut f: impl FnMut(usize, &ScaleInput)) {
             silhouette = silhouette.half();
         }
     }
+}
+
+/// The gradient magnitude `√(dx² + dy²)` of every pixel.
+fn magnitudes(dx: &[f32], dy: &[f32]) -> Vec<f32> {
+    dx.iter()
+        .zip(dy)
+        .map(|(&x, &y)| (x * x + y * y).sqrt())
+        .collect()
 }
 
 /// Edge kind index: outer (silhouette contour) rays.
@@ -353,8 +369,7 @@ impl Workspace {
             };
             let map = &mut self.maps[kind];
             for &j in &self.pixels[start..] {
-                let v = &mut map[j as usize];
-                *v = v.min(width);
+                lower_to(&mut map[j as usize], width);
             }
             self.rays.push(Ray {
                 start: start as u32,
@@ -369,11 +384,15 @@ impl Workspace {
             self.scratch.clear();
             self.scratch
                 .extend(ray_pixels.iter().map(|&j| map[j as usize]));
+            // A ray that no shorter ray crossed holds one value: its median changes nothing.
+            let first = self.scratch[0];
+            if self.scratch.iter().all(|&v| v == first) {
+                continue;
+            }
             let mid = self.scratch.len() / 2;
             let (_, &mut median, _) = self.scratch.select_nth_unstable_by(mid, f32::total_cmp);
             for &j in ray_pixels {
-                let v = &mut map[j as usize];
-                *v = v.min(median);
+                lower_to(&mut map[j as usize], median);
             }
         }
         // Statistics over each map's pixels, resetting them to INFINITY as they are counted.
@@ -406,6 +425,15 @@ impl Workspace {
                 rays,
             }
         })
+    }
+}
+
+/// `*v = v.min(x)` for the values met here (the maps never hold NaN; a NaN `x` leaves `*v` as
+/// `min` would), as a plain compare instead of `min`'s NaN handling.
+#[inline]
+fn lower_to(v: &mut f32, x: f32) {
+    if x < *v {
+        *v = x;
     }
 }
 
