@@ -790,7 +790,8 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
     }
     if let Some(cv) = cv_seconds {
         outln!(
-            "argmin 5-fold CV over 8 λ as in `learner train` (40 fits, warm starts, ftol 1e-8): {cv:.2} s, {cv_passes} passes over the data"
+            "argmin 5-fold CV over 8 λ as in `learner train` (40 fits, warm starts, ftol {:e}): {cv:.2} s, {cv_passes} passes over the data",
+            TrainParams::default().cv_lbfgs.ftol
         )?;
     }
     if let Some(p) = &a.json {
