@@ -6,11 +6,20 @@
 //! as before, nothing is acknowledged from memory, and a crash loses only unacknowledged
 //! answers (the client retries; answers are idempotent).
 //!
-//! Each statement's outcome (rows affected) is returned to its own caller, so the conditional
-//! "first answer wins" logic of [`crate::flow::answer`] is unchanged. A database error aborts the
-//! whole batch and every caller in it gets the error (none was acknowledged).
+//! Each statement's outcome is returned to its own caller, so the conditional "first answer
+//! wins" logic of [`crate::flow::answer`] is unchanged. A database error aborts the whole batch
+//! and every caller in it gets the error (none was acknowledged).
+//!
+//! On SQLite the same statement also returns the assignment's next unanswered position
+//! (`RETURNING` with a subquery), so the answer path needs no read after the commit. That value
+//! is exact there: every writer of the file is serialised (`BEGIN IMMEDIATE`), so no other
+//! answer of the assignment can commit between this statement and the commit. On PostgreSQL,
+//! where several servers write concurrently under READ COMMITTED, a statement's snapshot may
+//! miss another server's concurrent answer of the same assignment (both would then see the
+//! other's question as open and neither would complete the HIT), so the caller reads it after
+//! the commit instead ([`Next::ReadAfterCommit`]).
 
-use sqlx::AnyPool;
+use sqlx::{AnyPool, Row};
 use tokio::sync::{mpsc, oneshot};
 
 use crate::db::{Backend, now_ms};
@@ -32,9 +41,27 @@ pub struct AnswerWrite {
     pub elapsed_ms: Option<i64>,
 }
 
+/// What happened to one answer, once its transaction has committed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Written {
+    /// This answer was stored (the question had none).
+    Stored(Next),
+    /// The question already had an answer (this one or another); nothing was changed.
+    AlreadyAnswered,
+}
+
+/// The assignment's next unanswered position after a stored answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Next {
+    /// Read in the writing transaction, exact (SQLite); `None`: every question is answered.
+    Known(Option<i64>),
+    /// Not read (PostgreSQL): read it after the commit.
+    ReadAfterCommit,
+}
+
 struct Pending {
     write: AnswerWrite,
-    reply: oneshot::Sender<Result<u64>>,
+    reply: oneshot::Sender<Result<Written>>,
 }
 
 /// Handle to the batching task (cheap to clone).
@@ -51,9 +78,9 @@ impl AnswerWriter {
         Self { queue }
     }
 
-    /// Stores one answer; returns the rows the conditional `UPDATE` changed (0: the question
-    /// already had an answer) once the transaction holding it has committed.
-    pub async fn write(&self, write: AnswerWrite) -> Result<u64> {
+    /// Stores one answer; returns what the conditional `UPDATE` did once the transaction
+    /// holding it has committed.
+    pub async fn write(&self, write: AnswerWrite) -> Result<Written> {
         let (reply, answer) = oneshot::channel();
         self.queue
             .send(Pending { write, reply })
@@ -75,8 +102,8 @@ async fn run(writer: AnyPool, backend: Backend, mut rx: mpsc::UnboundedReceiver<
             }
         }
         match write_batch(&writer, backend, &batch).await {
-            Ok(counts) => {
-                for (p, n) in batch.drain(..).zip(counts) {
+            Ok(outcomes) => {
+                for (p, n) in batch.drain(..).zip(outcomes) {
                     // The caller may have gone (client disconnected): nothing to do.
                     let _ = p.reply.send(Ok(n));
                 }
@@ -93,28 +120,50 @@ async fn run(writer: AnyPool, backend: Backend, mut rx: mpsc::UnboundedReceiver<
     }
 }
 
-async fn write_batch(writer: &AnyPool, backend: Backend, batch: &[Pending]) -> Result<Vec<u64>> {
+/// Stores a question's answer if it has none. The SQLite form also returns the next open
+/// position of the assignment (see the module comment for why only there).
+const UPDATE_SQLITE: &str = "UPDATE questions SET choice = $1, answered_at = $2, elapsed_ms = $3 \
+     WHERE assignment_id = $4 AND position = $5 AND choice IS NULL \
+     RETURNING (SELECT MIN(n.position) FROM questions n WHERE n.assignment_id = $4 \
+       AND n.choice IS NULL AND n.position <> $5) AS next";
+const UPDATE_POSTGRES: &str = "UPDATE questions SET choice = $1, answered_at = $2, \
+     elapsed_ms = $3 WHERE assignment_id = $4 AND position = $5 AND choice IS NULL";
+
+async fn write_batch(
+    writer: &AnyPool,
+    backend: Backend,
+    batch: &[Pending],
+) -> Result<Vec<Written>> {
     let mut tx = match backend {
         Backend::Sqlite => writer.begin_with("BEGIN IMMEDIATE").await?,
         Backend::Postgres => writer.begin().await?,
     };
     let at = now_ms();
-    let mut counts = Vec::with_capacity(batch.len());
+    let mut outcomes = Vec::with_capacity(batch.len());
     for p in batch {
         let w = &p.write;
-        let done = sqlx::query(
-            "UPDATE questions SET choice = $1, answered_at = $2, elapsed_ms = $3 \
-             WHERE assignment_id = $4 AND position = $5 AND choice IS NULL",
-        )
-        .bind(w.choice)
-        .bind(at)
-        .bind(w.elapsed_ms)
-        .bind(w.assignment)
-        .bind(w.position)
-        .execute(&mut *tx)
-        .await?;
-        counts.push(done.rows_affected());
+        let sql = match backend {
+            Backend::Sqlite => UPDATE_SQLITE,
+            Backend::Postgres => UPDATE_POSTGRES,
+        };
+        let query = sqlx::query(sql)
+            .bind(w.choice)
+            .bind(at)
+            .bind(w.elapsed_ms)
+            .bind(w.assignment)
+            .bind(w.position);
+        let outcome = match backend {
+            Backend::Sqlite => match query.fetch_optional(&mut *tx).await? {
+                Some(row) => Written::Stored(Next::Known(row.try_get("next")?)),
+                None => Written::AlreadyAnswered,
+            },
+            Backend::Postgres => match query.execute(&mut *tx).await?.rows_affected() {
+                0 => Written::AlreadyAnswered,
+                _ => Written::Stored(Next::ReadAfterCommit),
+            },
+        };
+        outcomes.push(outcome);
     }
     tx.commit().await?;
-    Ok(counts)
+    Ok(outcomes)
 }

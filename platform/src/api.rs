@@ -284,9 +284,7 @@ async fn answer(
     ApiPath(token): ApiPath<String>,
     ApiJson(req): ApiJson<AnswerRequest>,
 ) -> Result<Json<AnswerAck>> {
-    let a = flow::by_token(&state.db, &token).await?;
-    let s = flow::study_of(&state.db, &a).await?;
-    Ok(Json(flow::answer(&state.db, &s, &a, &req).await?))
+    Ok(Json(flow::answer(&state.db, &token, &req).await?))
 }
 
 /// Stores the "why did you choose?" questionnaire of a question.

@@ -37,6 +37,9 @@ pub struct BenchArgs {
     /// Server connection pool size.
     #[arg(long, default_value_t = 16)]
     pub max_connections: u32,
+    /// Paced (open-loop) phases: total offered answers/s, comma-separated (0: none).
+    #[arg(long, value_delimiter = ',', default_value = "1000,2000")]
+    pub rates: Vec<f64>,
 }
 
 /// Latency and throughput of one phase.
@@ -50,23 +53,38 @@ pub struct Measurement {
     pub p99_ms: f64,
     /// Failed requests.
     pub errors: usize,
+    /// 99th percentile latency of the HIT starts (allocations) in the phase, ms (NaN: none).
+    pub start_p99_ms: f64,
+}
+
+/// The `p` quantile of sorted `lat` (NaN when empty).
+fn quantile(lat: &[f64], p: f64) -> f64 {
+    if lat.is_empty() {
+        f64::NAN
+    } else {
+        lat[((lat.len() as f64 - 1.0) * p).round() as usize]
+    }
 }
 
 fn summarise(mut lat: Vec<f64>, errors: usize, elapsed: Duration) -> Measurement {
     lat.sort_by(f64::total_cmp);
-    let q = |p: f64| {
-        if lat.is_empty() {
-            f64::NAN
-        } else {
-            lat[((lat.len() as f64 - 1.0) * p).round() as usize]
-        }
-    };
     Measurement {
         per_second: lat.len() as f64 / elapsed.as_secs_f64(),
-        p50_ms: q(0.5),
-        p99_ms: q(0.99),
+        p50_ms: quantile(&lat, 0.5),
+        p99_ms: quantile(&lat, 0.99),
         errors,
+        start_p99_ms: f64::NAN,
     }
+}
+
+/// HIT start latencies of one phase, shared by its workers.
+type Starts = Arc<std::sync::Mutex<Vec<f64>>>;
+
+/// The p99 of `starts`, emptying it.
+fn start_p99(starts: &Starts) -> f64 {
+    let mut lat = std::mem::take(&mut *starts.lock().unwrap_or_else(|e| e.into_inner()));
+    lat.sort_by(f64::total_cmp);
+    quantile(&lat, 0.99)
 }
 
 /// A solid-colour item so the benchmark does not depend on fixture files.
@@ -129,12 +147,15 @@ async fn healthz_phase(base: &str, workers: usize, seconds: u64) -> Measurement 
     }
     tokio::time::sleep(Duration::from_secs(seconds)).await;
     stop.store(true, Ordering::Relaxed);
-    collect(tasks, start.elapsed()).await
+    collect(tasks, start).await
 }
 
+/// Joins the phase's workers; the rate is over the time from `since` until the last of them
+/// has its last answer (a paced phase the server cannot keep up with runs over its schedule,
+/// and its rate shows it).
 async fn collect(
     tasks: Vec<tokio::task::JoinHandle<(Vec<f64>, usize)>>,
-    elapsed: Duration,
+    since: Instant,
 ) -> Measurement {
     let (mut lat, mut errors) = (Vec::new(), 0);
     for t in tasks {
@@ -143,10 +164,101 @@ async fn collect(
             errors += e;
         }
     }
-    summarise(lat, errors, elapsed)
+    summarise(lat, errors, since.elapsed())
 }
 
-async fn answer_phase(
+/// One simulated worker: its current HIT and the answers it will give.
+struct BenchWorker {
+    client: reqwest::Client,
+    base: String,
+    db: Db,
+    study: StudyId,
+    /// Worker index (part of every worker id it uses).
+    index: usize,
+    /// HITs started so far (each HIT is a new worker id: one assignment per worker and study).
+    hits: usize,
+    /// Where the start latencies go.
+    starts: Starts,
+    token: String,
+    /// (position, choice) still to send, in order.
+    queue: std::collections::VecDeque<(i64, i64)>,
+}
+
+impl BenchWorker {
+    fn new(
+        client: reqwest::Client,
+        base: &str,
+        db: Db,
+        study: StudyId,
+        index: usize,
+        starts: Starts,
+    ) -> Self {
+        Self {
+            starts,
+            client,
+            base: base.to_string(),
+            db,
+            study,
+            index,
+            hits: 0,
+            token: String::new(),
+            queue: Default::default(),
+        }
+    }
+
+    /// Starts the next HIT when the current one is used up.
+    async fn ensure_hit(&mut self) -> Result<()> {
+        if !self.queue.is_empty() {
+            return Ok(());
+        }
+        self.hits += 1;
+        let id = format!("bench-{}-{}", self.index, self.hits);
+        let t = Instant::now();
+        self.token = start_hit(&self.client, &self.base, self.study, &id).await?;
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        self.starts
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(ms);
+        self.queue = hit_questions(&self.db, &self.token).await?.into();
+        Ok(())
+    }
+
+    /// Sends the next answer of the current HIT (call [`Self::ensure_hit`] first).
+    async fn answer_next(&mut self) -> Result<()> {
+        let (position, choice) = self
+            .queue
+            .pop_front()
+            .ok_or_else(|| AppError::Internal("no question left".into()))?;
+        let body = serde_json::json!({"position": position, "choice": choice});
+        let resp = self
+            .client
+            .post(format!(
+                "{}/api/v1/assignments/{}/answers",
+                self.base, self.token
+            ))
+            .json(&body)
+            .send()
+            .await
+            .map_err(AppError::internal)?;
+        if resp.status().is_success() {
+            Ok(())
+        } else {
+            Err(AppError::Internal(format!("answer: {}", resp.status())))
+        }
+    }
+}
+
+/// Counts an error, printing the first one of the phase (from worker 0 only, to stay readable).
+fn note_error(errors: &mut usize, worker: usize, what: &str, e: &AppError) {
+    if *errors == 0 && worker == 0 {
+        eprintln!("first {what} error: {e}");
+    }
+    *errors += 1;
+}
+
+/// Closed loop: every worker answers as fast as the server acknowledges.
+async fn closed_phase(
     db: Db,
     base: &str,
     study: StudyId,
@@ -155,50 +267,25 @@ async fn answer_phase(
 ) -> Measurement {
     let client = reqwest::Client::new();
     let stop = Arc::new(AtomicBool::new(false));
+    let starts = Starts::default();
     let start = Instant::now();
     let mut tasks = Vec::new();
     for w in 0..workers {
-        let (client, stop, base, db) = (client.clone(), stop.clone(), base.to_string(), db.clone());
+        let mut worker =
+            BenchWorker::new(client.clone(), base, db.clone(), study, w, starts.clone());
+        let stop = stop.clone();
         tasks.push(tokio::spawn(async move {
             let (mut lat, mut errors) = (Vec::new(), 0usize);
-            let mut hit = 0;
             while !stop.load(Ordering::Relaxed) {
-                hit += 1;
-                let started = start_hit(&client, &base, study, &format!("bench-{w}-{hit}")).await;
-                let Ok(token) = started else {
-                    if errors == 0 && w == 0 {
-                        eprintln!("first start error: {started:?}");
-                    }
-                    errors += 1;
+                if let Err(e) = worker.ensure_hit().await {
+                    note_error(&mut errors, w, "start", &e);
                     tokio::time::sleep(Duration::from_millis(50)).await;
                     continue;
-                };
-                let Ok(questions) = hit_questions(&db, &token).await else {
-                    errors += 1;
-                    continue;
-                };
-                for (position, choice) in questions {
-                    if stop.load(Ordering::Relaxed) {
-                        break;
-                    }
-                    let t = Instant::now();
-                    let body = serde_json::json!({"position": position, "choice": choice});
-                    match client
-                        .post(format!("{base}/api/v1/assignments/{token}/answers"))
-                        .json(&body)
-                        .send()
-                        .await
-                    {
-                        Ok(r) if r.status().is_success() => {
-                            lat.push(t.elapsed().as_secs_f64() * 1e3)
-                        }
-                        other => {
-                            if errors == 0 && w == 0 {
-                                eprintln!("first answer error: {:?}", other.map(|r| r.status()));
-                            }
-                            errors += 1
-                        }
-                    }
+                }
+                let t = Instant::now();
+                match worker.answer_next().await {
+                    Ok(()) => lat.push(t.elapsed().as_secs_f64() * 1e3),
+                    Err(e) => note_error(&mut errors, w, "answer", &e),
                 }
             }
             (lat, errors)
@@ -206,7 +293,74 @@ async fn answer_phase(
     }
     tokio::time::sleep(Duration::from_secs(seconds)).await;
     stop.store(true, Ordering::Relaxed);
-    collect(tasks, start.elapsed()).await
+    let mut m = collect(tasks, start).await;
+    m.start_p99_ms = start_p99(&starts);
+    m
+}
+
+/// Warm-up of the paced mode: worker `w` of `workers` starts a HIT and answers `w / workers` of
+/// it (unmeasured), so that HIT ends are spread evenly over the measured schedule.
+async fn warm_up(mut worker: BenchWorker, workers: usize) -> Result<BenchWorker> {
+    worker.ensure_hit().await?;
+    let skip = worker.queue.len() * worker.index / workers;
+    for _ in 0..skip {
+        worker.answer_next().await?;
+    }
+    Ok(worker)
+}
+
+/// Paced (open loop): `rate` answers/s in total, each worker on a fixed schedule; latency from
+/// the scheduled send time.
+async fn paced_phase(
+    db: Db,
+    base: &str,
+    study: StudyId,
+    workers: usize,
+    rate: f64,
+    seconds: u64,
+) -> Result<Measurement> {
+    let client = reqwest::Client::new();
+    let starts = Starts::default();
+    let mut warming = Vec::new();
+    for w in 0..workers {
+        let worker = BenchWorker::new(client.clone(), base, db.clone(), study, w, starts.clone());
+        warming.push(tokio::spawn(warm_up(worker, workers)));
+    }
+    let mut ready = Vec::with_capacity(workers);
+    for t in warming {
+        ready.push(t.await.map_err(AppError::internal)??);
+    }
+    start_p99(&starts); // the warm-up's starts are not part of the measurement
+    let interval = Duration::from_secs_f64(workers as f64 / rate);
+    let t0 = Instant::now() + Duration::from_millis(100);
+    let end = t0 + Duration::from_secs(seconds);
+    let mut tasks = Vec::new();
+    for mut worker in ready {
+        let w = worker.index;
+        tasks.push(tokio::spawn(async move {
+            let (mut lat, mut errors) = (Vec::new(), 0usize);
+            // Phases spread evenly over one interval so the offered load is smooth.
+            let mut due = t0 + interval.mul_f64(w as f64 / workers as f64);
+            while due < end {
+                tokio::time::sleep_until(due.into()).await;
+                // Starting the next HIT is part of the worker's time: an answer it delays past
+                // its schedule is charged below.
+                let sent = match worker.ensure_hit().await {
+                    Ok(()) => worker.answer_next().await,
+                    Err(e) => Err(e),
+                };
+                match sent {
+                    Ok(()) => lat.push(due.elapsed().as_secs_f64() * 1e3),
+                    Err(e) => note_error(&mut errors, w, "paced", &e),
+                }
+                due += interval;
+            }
+            (lat, errors)
+        }));
+    }
+    let mut m = collect(tasks, t0).await;
+    m.start_p99_ms = start_p99(&starts);
+    Ok(m)
 }
 
 async fn start_hit(
@@ -241,11 +395,31 @@ async fn hit_questions(db: &Db, token: &str) -> Result<Vec<(i64, i64)>> {
         .collect()
 }
 
+/// One printed row.
+fn row(workers: usize, mode: &str, healthz: &Measurement, m: &Measurement) -> Result<()> {
+    outln!(
+        "{:>8} {:<14} | {:>10.0} {:>8.2} {:>8.2} {:>6} {:>9.1} | {:>10.0} {:>6.2}",
+        workers,
+        mode,
+        m.per_second,
+        m.p50_ms,
+        m.p99_ms,
+        m.errors,
+        m.start_p99_ms,
+        healthz.per_second,
+        m.per_second / healthz.per_second
+    )
+}
+
 /// Runs the benchmark and prints a table.
 pub async fn run(args: BenchArgs) -> Result<()> {
     if args.workers.is_empty() || args.workers.iter().any(|&w| w == 0 || w > 5000) {
         return Err(AppError::BadRequest("--workers: 1..=5000 each".into()));
     }
+    if args.rates.iter().any(|r| !(0.0..=100_000.0).contains(r)) {
+        return Err(AppError::BadRequest("--rates: 0..=100000 each".into()));
+    }
+    let rates: Vec<f64> = args.rates.iter().copied().filter(|&r| r > 0.0).collect();
     let db = Db::connect(&args.database_url, args.max_connections).await?;
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
         .await
@@ -261,33 +435,36 @@ pub async fn run(args: BenchArgs) -> Result<()> {
         args.seconds
     )?;
     outln!(
-        "{:>8} | {:>12} {:>9} {:>9} | {:>12} {:>9} {:>9} {:>7} | {:>8}",
+        "mode closed: no think time (saturation; mean latency = workers / rate by Little's law)"
+    )?;
+    outln!(
+        "mode paced R/s: R answers/s offered in total on a fixed schedule, latency from the \
+         scheduled send time"
+    )?;
+    outln!("start p99: HIT starts (allocations) of the phase, not counted as answers")?;
+    outln!(
+        "{:>8} {:<14} | {:>10} {:>8} {:>8} {:>6} {:>9} | {:>10} {:>6}",
         "workers",
-        "healthz/s",
-        "p50 ms",
-        "p99 ms",
+        "mode",
         "answers/s",
         "p50 ms",
         "p99 ms",
         "errors",
+        "start p99",
+        "healthz/s",
         "ratio"
     )?;
     for &w in &args.workers {
-        let study = prepare(&db, w, args.seconds).await?;
         let h = healthz_phase(&base, w, args.seconds).await;
-        let a = answer_phase(db.clone(), &base, study, w, args.seconds).await;
-        outln!(
-            "{:>8} | {:>12.0} {:>9.2} {:>9.2} | {:>12.0} {:>9.2} {:>9.2} {:>7} | {:>8.2}",
-            w,
-            h.per_second,
-            h.p50_ms,
-            h.p99_ms,
-            a.per_second,
-            a.p50_ms,
-            a.p99_ms,
-            a.errors,
-            a.per_second / h.per_second
-        )?;
+        let study = prepare(&db, w, args.seconds).await?;
+        let closed = closed_phase(db.clone(), &base, study, w, args.seconds).await;
+        row(w, "closed", &h, &closed)?;
+        for &rate in &rates {
+            // A fresh study per phase: the previous phase's HITs hold many of the slots.
+            let study = prepare(&db, w, args.seconds).await?;
+            let paced = paced_phase(db.clone(), &base, study, w, rate, args.seconds).await?;
+            row(w, &format!("paced {rate:.0}/s"), &h, &paced)?;
+        }
     }
     server.abort();
     Ok(())

@@ -7,10 +7,13 @@
 //! conditional `UPDATE ... WHERE assignment_id IS NULL`, which PostgreSQL re-checks after waiting
 //! for a concurrent writer, so a slot is never filled twice.
 
+use std::ops::{Deref, DerefMut};
+use std::sync::Arc;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use sqlx::any::{AnyPoolOptions, AnyRow};
-use sqlx::{Any, AnyPool, Executor, Transaction};
+use sqlx::{Any, AnyConnection, AnyPool, Executor, Transaction};
+use tokio::sync::{Mutex, OwnedMutexGuard};
 
 use crate::answer_writer::AnswerWriter;
 use crate::error::{AppError, Result};
@@ -38,6 +41,43 @@ pub struct Db {
     pub backend: Backend,
     /// Group commit of answers through `writer` (see [`crate::answer_writer`]).
     pub answers: AnswerWriter,
+    /// SQLite only: one turn for all write transactions other than the answer writer's (see
+    /// [`Db::begin_write`]).
+    turns: Option<Arc<Mutex<()>>>,
+}
+
+/// A write transaction from [`Db::begin_write`]. Use it like the transaction's connection
+/// (`&mut *tx`); it ends with [`WriteTx::commit`], or rolls back when dropped.
+pub struct WriteTx {
+    tx: Transaction<'static, Any>,
+    /// This process's turn at SQLite's writer, released after the transaction (fields drop in
+    /// order: the transaction first).
+    _turn: Option<OwnedMutexGuard<()>>,
+}
+
+impl WriteTx {
+    /// Commits.
+    pub async fn commit(self) -> Result<()> {
+        Ok(self.tx.commit().await?)
+    }
+
+    /// Rolls back.
+    pub async fn rollback(self) -> Result<()> {
+        Ok(self.tx.rollback().await?)
+    }
+}
+
+impl Deref for WriteTx {
+    type Target = AnyConnection;
+    fn deref(&self) -> &AnyConnection {
+        &self.tx
+    }
+}
+
+impl DerefMut for WriteTx {
+    fn deref_mut(&mut self) -> &mut AnyConnection {
+        &mut self.tx
+    }
 }
 
 /// Migrations embedded at build time.
@@ -95,20 +135,45 @@ impl Db {
             Backend::Postgres => pool.clone(),
         };
         let answers = AnswerWriter::start(writer.clone(), backend);
+        let turns = (backend == Backend::Sqlite).then(|| Arc::new(Mutex::new(())));
         Ok(Self {
             pool,
             writer,
             backend,
             answers,
+            turns,
         })
     }
 
     /// Begins a write transaction (`BEGIN IMMEDIATE` on SQLite).
-    pub async fn begin_write(&self) -> Result<Transaction<'static, Any>> {
-        Ok(match self.backend {
+    ///
+    /// On SQLite these transactions (HIT allocations, completions, admin writes) first take
+    /// one shared turn, so at most one of them waits at the single-connection `writer` pool
+    /// next to the answer writer. The pool serves waiters in order, so the answer writer's
+    /// batches alternate with them one by one: an answer waits for at most one allocation,
+    /// not for a whole wave of HITs started together. A latency measure only: SQLite's own
+    /// lock still serialises every writer, across processes too.
+    pub async fn begin_write(&self) -> Result<WriteTx> {
+        let turn = match &self.turns {
+            Some(turns) => Some(turns.clone().lock_owned().await),
+            None => None,
+        };
+        self.begin(turn).await
+    }
+
+    /// Like [`Db::begin_write`] but without waiting for the turn: for the short write that
+    /// completes a HIT inside an answer request, which must not queue behind HIT allocations
+    /// (it still waits at the `writer` pool, behind at most the answer writer and one turn).
+    pub async fn begin_write_unqueued(&self) -> Result<WriteTx> {
+        self.begin(None).await
+    }
+
+    async fn begin(&self, turn: Option<OwnedMutexGuard<()>>) -> Result<WriteTx> {
+        let tx = match self.backend {
             Backend::Sqlite => self.writer.begin_with("BEGIN IMMEDIATE").await?,
             Backend::Postgres => self.writer.begin().await?,
-        })
+        };
+        Ok(WriteTx { tx, _turn: turn })
     }
 
     /// `SELECT 1`: is the database reachable?

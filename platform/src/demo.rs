@@ -204,8 +204,7 @@ pub async fn simulate(db: &Db, study: &Study, n: u32, seed: u64) -> Result<SimRe
                 choice: crate::ids::ItemId(if picks_b { b } else { c }),
                 elapsed_ms: Some(rng.random_range(1500..6000)),
             };
-            flow::answer(db, study, &a, &req).await?;
-            a = flow::by_token(db, &token).await?;
+            flow::answer(db, &token, &req).await?;
         }
         if spammer {
             report.spammers += 1;

@@ -11,11 +11,11 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 use sha2::Sha256;
-use sqlx::{Any, Row, Transaction};
+use sqlx::{Any, Row};
 use utoipa::ToSchema;
 
-use crate::answer_writer::AnswerWrite;
-use crate::db::{Backend, Db, now_ms};
+use crate::answer_writer::{AnswerWrite, Next, Written};
+use crate::db::{Backend, Db, WriteTx, now_ms};
 use crate::error::{AppError, Result};
 use crate::ids::{AssignmentId, ItemId, StudyId, TupleId, WorkerId, random_token};
 use crate::qc;
@@ -210,7 +210,7 @@ pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOut
         .as_deref()
         .ok_or_else(|| AppError::BadRequest("worker_id: required".into()))?;
     valid_external("worker_id", external)?;
-    let demographics = req.demographics.unwrap_or_default();
+    let demographics = req.demographics.clone().unwrap_or_default();
     demographics.validate()?;
 
     if study.settings.blocked_workers.iter().any(|b| b == external) {
@@ -218,7 +218,69 @@ pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOut
             "you are not eligible for this study".into(),
         ));
     }
-    let worker = ensure_worker(db, source, external).await?;
+    // Read-only checks first: a worker we have never seen has no earlier assignment.
+    let known = find_worker(db, source, external).await?;
+    if let Some(worker) = known {
+        check_exclusions(db, study, worker).await?;
+        if let Some(token) = existing_token(db, study.id, worker).await? {
+            return Ok(StartOutcome::Started {
+                token,
+                resumed: true,
+            });
+        }
+    }
+    let training = !training_tuples(db, study.id).await?.is_empty();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(rand::rng().random());
+    let controls = if training {
+        Vec::new()
+    } else {
+        hit_controls(db, study, &mut rng).await?
+    };
+    let new = NewAssignment {
+        id: AssignmentId::generate(),
+        token: random_token(),
+        study: study.id,
+        source,
+        sandbox,
+        status: if training { "training" } else { "active" },
+        demographics: serde_json::to_string(&demographics).map_err(AppError::internal)?,
+        req: &req,
+    };
+    // One write transaction for the worker, the assignment and (without training) the whole
+    // HIT: one commit (one fsync on SQLite) instead of three, and a HIT is never visible
+    // half-allocated.
+    let mut tx = db.begin_write().await?;
+    let worker = match known {
+        Some(w) => w,
+        None => ensure_worker(&mut tx, source, external).await?,
+    };
+    if !new.insert(&mut tx, worker).await? {
+        // A concurrent start of the same worker won the race: resume theirs.
+        tx.rollback().await?;
+        let token = existing_token(db, study.id, worker)
+            .await?
+            .ok_or(AppError::Internal("assignment vanished".into()))?;
+        return Ok(StartOutcome::Started {
+            token,
+            resumed: true,
+        });
+    }
+    if !training {
+        // No free slot left: `?` drops `tx`, which rolls the assignment back as well.
+        fill_hit(
+            &mut tx, db.backend, study, new.id, worker, controls, &mut rng,
+        )
+        .await?;
+    }
+    tx.commit().await?;
+    Ok(StartOutcome::Started {
+        token: new.token,
+        resumed: false,
+    })
+}
+
+/// Refuses workers who took part in one of the studies this one excludes.
+async fn check_exclusions(db: &Db, study: &Study, worker: WorkerId) -> Result<()> {
     for earlier in &study.settings.exclude_workers_of {
         let seen = sqlx::query("SELECT id FROM assignments WHERE study_id = $1 AND worker_id = $2")
             .bind(earlier.0)
@@ -231,59 +293,71 @@ pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOut
             ));
         }
     }
-    if let Some(token) = existing_token(db, study.id, worker).await? {
-        return Ok(StartOutcome::Started {
-            token,
-            resumed: true,
-        });
+    Ok(())
+}
+
+/// A new assignment, inserted by [`start`].
+struct NewAssignment<'r> {
+    id: AssignmentId,
+    token: String,
+    study: StudyId,
+    source: Source,
+    sandbox: bool,
+    /// `training`, or `active` when the study has no training (the HIT is allocated with it).
+    status: &'static str,
+    demographics: String,
+    req: &'r StartRequest,
+}
+
+impl NewAssignment<'_> {
+    /// Inserts it; `false` when the worker already has an assignment in this study.
+    async fn insert(&self, tx: &mut WriteTx, worker: WorkerId) -> Result<bool> {
+        let req = self.req;
+        let inserted = sqlx::query(
+            "INSERT INTO assignments (id, token, study_id, worker_id, source, sandbox, \
+             external_assignment, hit_id, submit_to, prolific_study, prolific_session, \
+             demographics, status, training_attempts, started_at) \
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, 0, $14) \
+             ON CONFLICT DO NOTHING",
+        )
+        .bind(self.id.0)
+        .bind(&self.token)
+        .bind(self.study.0)
+        .bind(worker.0)
+        .bind(self.source.as_str())
+        .bind(i64::from(self.sandbox))
+        .bind(req.assignment_id.clone())
+        .bind(req.hit_id.clone())
+        .bind(
+            req.turk_submit_to
+                .as_deref()
+                .map(|s| s.trim_end_matches('/').to_string()),
+        )
+        .bind(req.prolific_study_id.clone())
+        .bind(req.prolific_session_id.clone())
+        .bind(&self.demographics)
+        .bind(self.status)
+        .bind(now_ms())
+        .execute(&mut **tx)
+        .await?;
+        Ok(inserted.rows_affected() == 1)
     }
-    let id = AssignmentId::generate();
-    let token = random_token();
-    let inserted = sqlx::query(
-        "INSERT INTO assignments (id, token, study_id, worker_id, source, sandbox, \
-         external_assignment, hit_id, submit_to, prolific_study, prolific_session, demographics, \
-         status, training_attempts, started_at) \
-         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, 'training', 0, $13) \
-         ON CONFLICT DO NOTHING",
-    )
-    .bind(id.0)
-    .bind(&token)
-    .bind(study.id.0)
-    .bind(worker.0)
-    .bind(source.as_str())
-    .bind(i64::from(sandbox))
-    .bind(req.assignment_id)
-    .bind(req.hit_id)
-    .bind(
-        req.turk_submit_to
-            .map(|s| s.trim_end_matches('/').to_string()),
-    )
-    .bind(req.prolific_study_id)
-    .bind(req.prolific_session_id)
-    .bind(serde_json::to_string(&demographics).map_err(AppError::internal)?)
-    .bind(now_ms())
-    .execute(&db.writer)
-    .await?;
-    if inserted.rows_affected() == 0 {
-        // A concurrent start of the same worker won the race: resume theirs.
-        let token = existing_token(db, study.id, worker)
-            .await?
-            .ok_or(AppError::Internal("assignment vanished".into()))?;
-        return Ok(StartOutcome::Started {
-            token,
-            resumed: true,
-        });
-    }
-    if training_tuples(db, study.id).await?.is_empty() {
-        allocate(db, study, id, worker).await?;
-    }
-    Ok(StartOutcome::Started {
-        token,
-        resumed: false,
+}
+
+async fn find_worker(db: &Db, source: Source, external: &str) -> Result<Option<WorkerId>> {
+    let row = sqlx::query("SELECT id FROM workers WHERE source = $1 AND external_id = $2")
+        .bind(source.as_str())
+        .bind(external)
+        .fetch_optional(&db.pool)
+        .await?;
+    Ok(match row {
+        Some(r) => Some(WorkerId(r.try_get("id")?)),
+        None => None,
     })
 }
 
-async fn ensure_worker(db: &Db, source: Source, external: &str) -> Result<WorkerId> {
+/// Creates the worker unless a concurrent request just did; returns its id.
+async fn ensure_worker(tx: &mut WriteTx, source: Source, external: &str) -> Result<WorkerId> {
     sqlx::query(
         "INSERT INTO workers (id, source, external_id, created_at) VALUES ($1, $2, $3, $4) \
          ON CONFLICT DO NOTHING",
@@ -292,12 +366,12 @@ async fn ensure_worker(db: &Db, source: Source, external: &str) -> Result<Worker
     .bind(source.as_str())
     .bind(external)
     .bind(now_ms())
-    .execute(&db.writer)
+    .execute(&mut **tx)
     .await?;
     let row = sqlx::query("SELECT id FROM workers WHERE source = $1 AND external_id = $2")
         .bind(source.as_str())
         .bind(external)
-        .fetch_one(&db.pool)
+        .fetch_one(&mut **tx)
         .await?;
     Ok(WorkerId(row.try_get("id")?))
 }
@@ -337,9 +411,14 @@ pub struct Assignment {
     pub training_attempts: i64,
 }
 
+/// Whether `token` has the shape of a bearer token (32 hex digits): others are not looked up.
+fn valid_token(token: &str) -> bool {
+    token.len() == 32 && token.bytes().all(|b| b.is_ascii_hexdigit())
+}
+
 /// Looks an assignment up by its bearer token.
 pub async fn by_token(db: &Db, token: &str) -> Result<Assignment> {
-    if token.len() != 32 || !token.bytes().all(|b| b.is_ascii_hexdigit()) {
+    if !valid_token(token) {
         return Err(AppError::NotFound("assignment"));
     }
     let r = sqlx::query(
@@ -647,9 +726,9 @@ pub async fn release_abandoned(db: &Db, study: StudyId, older_than_ms: i64) -> R
     Ok(released)
 }
 
-/// Allocates the HIT: claims up to `questions - controls` free slots of distinct tuples the
-/// worker has never seen (one conditional `UPDATE` per slot: a slot is filled by exactly one
-/// assignment on both databases), adds the hidden controls, shuffles positions.
+/// Allocates the HIT of an assignment that has passed its training: moves it to `active` and
+/// fills it ([`fill_hit`]) in one transaction. Returns the number of questions (0: a concurrent
+/// request had already allocated it).
 pub async fn allocate(
     db: &Db,
     study: &Study,
@@ -657,21 +736,7 @@ pub async fn allocate(
     worker: WorkerId,
 ) -> Result<usize> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(rand::rng().random());
-    let s = &study.settings;
-    let controls_rows = sqlx::query(
-        "SELECT id FROM tuples WHERE study_id = $1 AND kind = 'control' ORDER BY seq, id",
-    )
-    .bind(study.id.0)
-    .fetch_all(&db.pool)
-    .await?;
-    let mut controls: Vec<i64> = controls_rows
-        .iter()
-        .map(|r| r.try_get("id"))
-        .collect::<Result<_, _>>()?;
-    controls.shuffle(&mut rng);
-    controls.truncate(s.controls_per_hit as usize);
-    let wanted = (s.questions_per_hit - s.controls_per_hit) as usize;
-
+    let controls = hit_controls(db, study, &mut rng).await?;
     let mut tx = db.begin_write().await?;
     let moved = sqlx::query(
         "UPDATE assignments SET status = 'active' WHERE id = $1 AND status = 'training'",
@@ -683,7 +748,47 @@ pub async fn allocate(
         // Already allocated by a concurrent request.
         return Ok(0);
     }
-    let now = now_ms();
+    let n = fill_hit(
+        &mut tx, db.backend, study, assignment, worker, controls, &mut rng,
+    )
+    .await?;
+    tx.commit().await?;
+    Ok(n)
+}
+
+/// The hidden controls of a new HIT, drawn at random (read before the write transaction so
+/// that it does not hold the writer).
+async fn hit_controls(db: &Db, study: &Study, rng: &mut impl Rng) -> Result<Vec<i64>> {
+    let rows = sqlx::query(
+        "SELECT id FROM tuples WHERE study_id = $1 AND kind = 'control' ORDER BY seq, id",
+    )
+    .bind(study.id.0)
+    .fetch_all(&db.pool)
+    .await?;
+    let mut controls: Vec<i64> = rows
+        .iter()
+        .map(|r| r.try_get("id"))
+        .collect::<Result<_, _>>()?;
+    controls.shuffle(rng);
+    controls.truncate(study.settings.controls_per_hit as usize);
+    Ok(controls)
+}
+
+/// Fills a HIT inside `tx`: claims up to `questions - controls` free slots of distinct tuples
+/// the worker has never seen (conditional `UPDATE`s: a slot is filled by exactly one assignment
+/// on both databases), adds the hidden controls, shuffles positions. A study without a free
+/// slot is a conflict (the caller's transaction is then rolled back).
+async fn fill_hit(
+    tx: &mut WriteTx,
+    backend: Backend,
+    study: &Study,
+    assignment: AssignmentId,
+    worker: WorkerId,
+    controls: Vec<i64>,
+    rng: &mut impl Rng,
+) -> Result<usize> {
+    let s = &study.settings;
+    let wanted = (s.questions_per_hit - s.controls_per_hit) as usize;
     // Start at a random tuple and wrap around once: concurrent allocators spread over the
     // table instead of all scanning (and, on PostgreSQL, skipping) the same first free rows.
     let start = rng.random_range(-1..i64::from(s.tuples).max(0));
@@ -691,16 +796,15 @@ pub async fn allocate(
         assignment,
         worker,
         study: study.id,
-        now,
+        now: now_ms(),
         wanted,
         start,
     };
-    let claimed = match db.backend {
-        Backend::Sqlite => claim.many_per_statement(&mut tx).await?,
-        Backend::Postgres => claim.one_per_statement(&mut tx).await?,
+    let claimed = match backend {
+        Backend::Sqlite => claim.many_per_statement(tx).await?,
+        Backend::Postgres => claim.one_per_statement(tx).await?,
     };
     if claimed.is_empty() {
-        tx.rollback().await?;
         return Err(AppError::Conflict(
             "this study has no more questions available".into(),
         ));
@@ -708,7 +812,7 @@ pub async fn allocate(
     let mut questions: Vec<(i64, Option<i64>)> =
         claimed.iter().map(|&(s, t)| (t, Some(s))).collect();
     questions.extend(controls.iter().map(|&t| (t, None)));
-    questions.shuffle(&mut rng);
+    questions.shuffle(rng);
     // One multi-row INSERT instead of one statement per question: the transaction holds
     // SQLite's single writer, and answers queue behind it.
     let sql = questions_insert_sql(questions.len());
@@ -723,8 +827,7 @@ pub async fn allocate(
             .bind(i64::from(rng.random_bool(0.5)))
             .bind(i64::from(ask));
     }
-    insert.execute(&mut *tx).await?;
-    tx.commit().await?;
+    insert.execute(&mut **tx).await?;
     Ok(questions.len())
 }
 
@@ -746,10 +849,7 @@ impl SlotClaim {
     /// SQLite (`BEGIN IMMEDIATE` already serialises writers): one free slot of each of the
     /// next tuples per statement — two statements per HIT instead of one per question, so the
     /// single writer, and the answers queued behind it, are free sooner. Returns (slot, tuple).
-    async fn many_per_statement(
-        &self,
-        tx: &mut Transaction<'static, Any>,
-    ) -> Result<Vec<(i64, i64)>> {
+    async fn many_per_statement(&self, tx: &mut WriteTx) -> Result<Vec<(i64, i64)>> {
         let mut claimed = self
             .claim_range(tx, self.start, i64::MAX, self.wanted)
             .await?;
@@ -773,7 +873,7 @@ impl SlotClaim {
     /// Returns (slot, tuple, seq).
     async fn claim_range(
         &self,
-        tx: &mut Transaction<'static, Any>,
+        tx: &mut WriteTx,
         lower: i64,
         upper: i64,
         limit: usize,
@@ -815,10 +915,7 @@ impl SlotClaim {
     /// PostgreSQL: one claim per statement, the first free slot after the previously claimed
     /// tuple; the row lock is taken on that slot only and rows other allocators are claiming
     /// are skipped, so concurrent allocations neither wait on nor deadlock with each other.
-    async fn one_per_statement(
-        &self,
-        tx: &mut Transaction<'static, Any>,
-    ) -> Result<Vec<(i64, i64)>> {
+    async fn one_per_statement(&self, tx: &mut WriteTx) -> Result<Vec<(i64, i64)>> {
         let mut claimed = Vec::with_capacity(self.wanted);
         let (mut lower, mut upper) = (self.start, i64::MAX);
         let (mut first_seq, mut wrapped) = (None, false);
@@ -902,18 +999,68 @@ pub struct AnswerAck {
     pub next_position: Option<i64>,
 }
 
+/// What the answer path needs to know before writing, read in one query.
+struct AnswerTarget {
+    assignment: AssignmentId,
+    study: StudyId,
+    status: String,
+    /// `None`: the assignment has no question at that position.
+    question: Option<TargetQuestion>,
+}
+
+struct TargetQuestion {
+    b: i64,
+    c: i64,
+    ask_reasons: bool,
+    choice: Option<String>,
+}
+
+/// The assignment behind `token` and its question at `position`, with the question's two
+/// options (never a control's expected answer), in one round trip instead of one per table.
+async fn answer_target(db: &Db, token: &str, position: i64) -> Result<AnswerTarget> {
+    if !valid_token(token) {
+        return Err(AppError::NotFound("assignment"));
+    }
+    let r = sqlx::query(
+        "SELECT a.id, a.study_id, a.status, q.position, q.choice, q.ask_reasons, t.b, t.c \
+         FROM assignments a \
+         LEFT JOIN questions q ON q.assignment_id = a.id AND q.position = $2 \
+         LEFT JOIN tuples t ON t.id = q.tuple_id \
+         WHERE a.token = $1",
+    )
+    .bind(token)
+    .bind(position)
+    .fetch_optional(&db.pool)
+    .await?
+    .ok_or(AppError::NotFound("assignment"))?;
+    let question = match r.try_get::<Option<i64>, _>("position")? {
+        None => None,
+        Some(_) => Some(TargetQuestion {
+            b: r.try_get("b")?,
+            c: r.try_get("c")?,
+            ask_reasons: r.try_get::<i64, _>("ask_reasons")? != 0,
+            choice: r.try_get("choice")?,
+        }),
+    };
+    Ok(AnswerTarget {
+        assignment: AssignmentId(r.try_get("id")?),
+        study: StudyId(r.try_get("study_id")?),
+        status: r.try_get("status")?,
+        question,
+    })
+}
+
 /// Stores an answer (idempotent: the same answer again is acknowledged as a duplicate; a
 /// different one is a conflict). Completes the assignment after its last answer.
-pub async fn answer(
-    db: &Db,
-    study: &Study,
-    a: &Assignment,
-    req: &AnswerRequest,
-) -> Result<AnswerAck> {
-    if a.status != "active" && a.status != "completed" {
+///
+/// The common path is one read ([`answer_target`]) and one group-committed write, which on
+/// SQLite also returns the next open position; the study is loaded only to complete a HIT.
+pub async fn answer(db: &Db, token: &str, req: &AnswerRequest) -> Result<AnswerAck> {
+    let target = answer_target(db, token, req.position).await?;
+    if target.status != "active" && target.status != "completed" {
         return Err(AppError::Conflict(format!(
             "the assignment is {}, not answering questions",
-            a.status
+            target.status
         )));
     }
     if let Some(ms) = req.elapsed_ms
@@ -921,77 +1068,77 @@ pub async fn answer(
     {
         return Err(AppError::BadRequest("elapsed_ms: 0..=86400000".into()));
     }
-    let row = sqlx::query(
-        "SELECT q.choice, q.ask_reasons, q.swapped, t.b, t.c FROM questions q \
-         JOIN tuples t ON t.id = q.tuple_id WHERE q.assignment_id = $1 AND q.position = $2",
-    )
-    .bind(a.id.0)
-    .bind(req.position)
-    .fetch_optional(&db.pool)
-    .await?
-    .ok_or(AppError::NotFound("question"))?;
-    let (b, c): (i64, i64) = (row.try_get("b")?, row.try_get("c")?);
-    let choice = if req.choice.0 == b {
+    let q = target
+        .question
+        .as_ref()
+        .ok_or(AppError::NotFound("question"))?;
+    let choice = if req.choice.0 == q.b {
         "b"
-    } else if req.choice.0 == c {
+    } else if req.choice.0 == q.c {
         "c"
     } else {
         return Err(AppError::BadRequest(
             "choice: not one of the question's two options".into(),
         ));
     };
-    let ask_reasons = row.try_get::<i64, _>("ask_reasons")? != 0;
-    let previous: Option<String> = row.try_get("choice")?;
-    let duplicate = match previous {
-        Some(p) if p == choice => true,
-        Some(_) => {
-            return Err(AppError::Conflict(
-                "this question was already answered differently".into(),
-            ));
-        }
-        None => {
-            // Group commit (see `answer_writer`): returns after the commit holding it.
-            let stored = db
-                .answers
-                .write(AnswerWrite {
-                    assignment: a.id.0,
-                    position: req.position,
-                    choice,
-                    elapsed_ms: req.elapsed_ms,
-                })
-                .await?;
-            if stored == 0 {
-                // A concurrent duplicate won: same answer → duplicate, else conflict.
-                let again = sqlx::query(
-                    "SELECT choice FROM questions WHERE assignment_id = $1 AND position = $2",
-                )
-                .bind(a.id.0)
-                .bind(req.position)
-                .fetch_one(&db.pool)
-                .await?;
-                let now: Option<String> = again.try_get("choice")?;
-                if now.as_deref() != Some(choice) {
-                    return Err(AppError::Conflict(
-                        "this question was already answered differently".into(),
-                    ));
-                }
-                true
-            } else {
-                false
-            }
-        }
+    let id = target.assignment;
+    let (duplicate, next) = match q.choice.as_deref() {
+        Some(p) if p == choice => (true, next_unanswered(db, id).await?),
+        Some(_) => return Err(answered_differently()),
+        None => store(db, id, req, choice).await?,
     };
-    let next = next_unanswered(db, a.id).await?;
     let completed = next.is_none();
-    if completed && a.status == "active" {
-        complete(db, study, a.id).await?;
+    if completed && target.status == "active" {
+        complete(db, target.study, id).await?;
     }
     Ok(AnswerAck {
         duplicate,
-        ask_reasons: ask_reasons && !duplicate,
+        ask_reasons: q.ask_reasons && !duplicate,
         completed,
         next_position: next,
     })
+}
+
+fn answered_differently() -> AppError {
+    AppError::Conflict("this question was already answered differently".into())
+}
+
+/// Writes an unanswered question's answer through the group commit (see `answer_writer`) and
+/// returns (duplicate, next open position) once it is durable.
+async fn store(
+    db: &Db,
+    id: AssignmentId,
+    req: &AnswerRequest,
+    choice: &'static str,
+) -> Result<(bool, Option<i64>)> {
+    let written = db
+        .answers
+        .write(AnswerWrite {
+            assignment: id.0,
+            position: req.position,
+            choice,
+            elapsed_ms: req.elapsed_ms,
+        })
+        .await?;
+    match written {
+        Written::Stored(Next::Known(next)) => Ok((false, next)),
+        Written::Stored(Next::ReadAfterCommit) => Ok((false, next_unanswered(db, id).await?)),
+        Written::AlreadyAnswered => {
+            // A concurrent request answered it first: the same answer → duplicate, else conflict.
+            let again = sqlx::query(
+                "SELECT choice FROM questions WHERE assignment_id = $1 AND position = $2",
+            )
+            .bind(id.0)
+            .bind(req.position)
+            .fetch_one(&db.pool)
+            .await?;
+            let now: Option<String> = again.try_get("choice")?;
+            if now.as_deref() != Some(choice) {
+                return Err(answered_differently());
+            }
+            Ok((true, next_unanswered(db, id).await?))
+        }
+    }
 }
 
 async fn next_unanswered(db: &Db, a: AssignmentId) -> Result<Option<i64>> {
@@ -1004,9 +1151,14 @@ async fn next_unanswered(db: &Db, a: AssignmentId) -> Result<Option<i64>> {
     Ok(row.try_get::<Option<i64>, _>("p")?)
 }
 
-/// Marks an assignment completed and applies the control rule (audited).
-async fn complete(db: &Db, study: &Study, a: AssignmentId) -> Result<()> {
-    let mut tx = db.begin_write().await?;
+/// Marks an assignment completed and applies the control rule (audited). Loads the study
+/// (for its threshold) only when the assignment is still active: once per HIT.
+async fn complete(db: &Db, study: StudyId, a: AssignmentId) -> Result<()> {
+    let threshold = study::load(db, study)
+        .await?
+        .settings
+        .reject_at_control_errors;
+    let mut tx = db.begin_write_unqueued().await?;
     let done = sqlx::query(
         "UPDATE assignments SET status = 'completed', completed_at = $1 WHERE id = $2 AND status = 'active'",
     )
@@ -1016,7 +1168,6 @@ async fn complete(db: &Db, study: &Study, a: AssignmentId) -> Result<()> {
     .await?;
     if done.rows_affected() == 1 {
         let errors = qc::control_errors(&mut tx, a).await?;
-        let threshold = study.settings.reject_at_control_errors;
         qc::record(
             &mut tx,
             a,

@@ -472,14 +472,12 @@ async fn answer_submit(
     page(
         async {
             let ApiForm(f) = form?;
-            let a = flow::by_token(&state.db, &token).await?;
-            let s = flow::study_of(&state.db, &a).await?;
             let req = flow::AnswerRequest {
                 position: f.position,
                 choice: f.choice,
                 elapsed_ms: f.elapsed_ms.and_then(|v| v.parse().ok()),
             };
-            flow::answer(&state.db, &s, &a, &req).await?;
+            flow::answer(&state.db, &token, &req).await?;
             Ok(Redirect::to(&format!("/a/{token}")).into_response())
         }
         .await,

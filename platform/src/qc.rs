@@ -4,9 +4,9 @@
 //! Every decision is a row in `decisions` (who, which rule, when, how many control errors).
 
 use serde::Serialize;
-use sqlx::{Any, Row, Transaction};
+use sqlx::Row;
 
-use crate::db::{Db, now_ms};
+use crate::db::{Db, WriteTx, now_ms};
 use crate::error::{AppError, Result};
 use crate::ids::{AssignmentId, DecisionId, StudyId};
 
@@ -42,7 +42,7 @@ pub fn verdict(errors: i64, threshold: u32) -> &'static str {
 
 /// Records a decision inside `tx` and makes it the assignment's current one.
 pub async fn record(
-    tx: &mut Transaction<'static, Any>,
+    tx: &mut WriteTx,
     assignment: AssignmentId,
     decision: &str,
     rule: &str,

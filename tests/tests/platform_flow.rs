@@ -594,3 +594,121 @@ async fn pass_training_allowing_full(
         .await
         .1
 }
+
+/// Every (position, right choice) of the HIT behind `token`, read from the database (the test
+/// plays a worker who answers all questions at once).
+async fn hit_answers(db_url: &str, token: &str) -> Vec<(i64, i64)> {
+    sqlx::any::install_default_drivers();
+    let pool = sqlx::AnyPool::connect(db_url).await.expect("connect");
+    let rows: Vec<(i64, i64)> = sqlx::query_as(
+        "SELECT q.position, t.b FROM questions q JOIN tuples t ON t.id = q.tuple_id \
+         JOIN assignments a ON a.id = q.assignment_id WHERE a.token = $1 ORDER BY q.position",
+    )
+    .bind(token)
+    .fetch_all(&pool)
+    .await
+    .expect("questions");
+    pool.close().await;
+    rows
+}
+
+/// Sends all `answers` concurrently; returns each (status, ack).
+async fn answer_concurrently(
+    c: &reqwest::Client,
+    base: &str,
+    token: &str,
+    answers: &[(i64, i64)],
+) -> Vec<(u16, Value)> {
+    let sends: Vec<_> = answers
+        .iter()
+        .map(|&(position, choice)| {
+            let req = c
+                .post(format!("{base}/api/v1/assignments/{token}/answers"))
+                .json(&json!({"position": position, "choice": choice}));
+            tokio::spawn(send(req))
+        })
+        .collect();
+    let mut acks = Vec::new();
+    for s in sends {
+        acks.push(s.await.expect("join"));
+    }
+    acks
+}
+
+/// A study without training: `start` creates the assignment and its HIT in one transaction;
+/// all answers sent at once (so they share group commits) complete the HIT exactly once, every
+/// ack saying where to go next; re-sending them is acknowledged as duplicates, a different
+/// choice is refused; a full study refuses a start without leaving an assignment behind.
+async fn concurrent_answers(db: TestDb) {
+    let opts = StudyOpts {
+        tuples: 20,
+        extra: json!({"training_questions": 0}),
+        ..StudyOpts::default()
+    };
+    let study = setup_study(&db, &opts);
+    let server = Server::start(&db.url);
+    let c = client();
+    let base = &server.base;
+
+    let token = start_worker(&c, base, study, "w-concurrent").await;
+    let (_, st) = send(c.get(format!("{base}/api/v1/assignments/{token}"))).await;
+    assert_eq!(
+        st["status"], "active",
+        "no training: the HIT is allocated at start: {st}"
+    );
+    assert_eq!(st["total"], 12);
+    let answers = hit_answers(&db.url, &token).await;
+    assert_eq!(answers.len(), 12);
+
+    let acks = answer_concurrently(&c, base, &token, &answers).await;
+    for (status, ack) in &acks {
+        assert_eq!(*status, 200, "{ack}");
+        assert_eq!(ack["duplicate"], false, "{ack}");
+        assert_no_control_leak(ack);
+        // An ack that is not the last one points at a question that was open when it was
+        // written, never at its own.
+        if ack["completed"] == false {
+            assert!(ack["next_position"].is_i64(), "{ack}");
+        }
+    }
+    let finished = acks.iter().filter(|(_, a)| a["completed"] == true).count();
+    assert!(finished >= 1, "no ack completed the HIT: {acks:?}");
+    let (_, st) = send(c.get(format!("{base}/api/v1/assignments/{token}"))).await;
+    assert_eq!(st["status"], "completed", "{st}");
+    assert_eq!(st["answered"], 12);
+    assert!(st["completion_code"].is_string(), "{st}");
+    let decisions = scalar(&db.url, "SELECT CAST(COUNT(*) AS BIGINT) FROM decisions").await;
+    assert_eq!(decisions, 1, "the control rule ran exactly once");
+
+    for (status, ack) in answer_concurrently(&c, base, &token, &answers).await {
+        assert_eq!(status, 200, "{ack}");
+        assert_eq!(ack["duplicate"], true, "{ack}");
+        assert_eq!(ack["completed"], true, "{ack}");
+    }
+    let (position, b) = answers[0];
+    let (status, body) = send(
+        c.post(format!("{base}/api/v1/assignments/{token}/answers"))
+            .json(&json!({"position": position, "choice": b + 1_000_000})),
+    )
+    .await;
+    assert_eq!(status, 400, "not one of the options: {body}");
+
+    // 20 tuples, 9 per HIT: the second HIT takes 9, the third the last 2, the fourth finds
+    // the study full.
+    start_worker(&c, base, study, "w-second").await;
+    start_worker(&c, base, study, "w-third").await;
+    let before = scalar(&db.url, "SELECT CAST(COUNT(*) AS BIGINT) FROM assignments").await;
+    let (status, body) = send(
+        c.post(format!("{base}/api/v1/studies/{study}/start"))
+            .json(&json!({"source": "direct", "worker_id": "w-fourth"})),
+    )
+    .await;
+    assert_eq!(status, 409, "{body}");
+    let after = scalar(&db.url, "SELECT CAST(COUNT(*) AS BIGINT) FROM assignments").await;
+    assert_eq!(before, after, "a refused start leaves no assignment");
+}
+both_databases!(
+    concurrent_answers,
+    concurrent_answers_sqlite,
+    concurrent_answers_postgres
+);
