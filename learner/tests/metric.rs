@@ -549,3 +549,45 @@ fn curvature_memory_carried_along_the_lambda_path_keeps_the_optimum() {
     };
     assert!(kkt <= 1e-4, "projected gradient {kkt}");
 }
+
+#[test]
+fn curvature_memory_from_another_dimension_is_dropped() {
+    use learner::metric::solver::{CurvatureMemory, SolverKind, minimise_warm};
+    let (x, dim, triplets, w0) = fixture_problem();
+    let params = LbfgsParams::default();
+    let big = TripletObjective::new(&x, dim, &triplets, 10.0, DEFAULT_SMOOTHING);
+    let mut memory = CurvatureMemory::default();
+    let (_, first) = minimise_warm(
+        SolverKind::Argmin,
+        big,
+        w0,
+        &params,
+        &mut memory,
+        &mut |_, _| {},
+    )
+    .unwrap();
+    assert!(first.converged, "{first:?}");
+    // The same memory on a 10-feature simulated problem: a fresh start, not a misaligned one.
+    let sim = simulate(&SimulationParams {
+        items: 80,
+        dim: 10,
+        support: 4,
+        triplets: 400,
+        ..SimulationParams::default()
+    })
+    .unwrap();
+    let small = TripletObjective::new(&sim.features, sim.dim, &sim.triplets, 1.0, 1e-8);
+    let (w, warm) = minimise_warm(
+        SolverKind::Argmin,
+        small,
+        vec![0.5; sim.dim],
+        &params,
+        &mut memory,
+        &mut |_, _| {},
+    )
+    .unwrap();
+    let (_, cold) = minimise_argmin(small, vec![0.5; sim.dim], &params, &mut |_, _| {}).unwrap();
+    assert_eq!(w.len(), sim.dim);
+    assert_eq!(warm.evaluations, cold.evaluations);
+    assert_eq!(warm.objective, cold.objective);
+}

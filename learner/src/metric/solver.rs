@@ -463,6 +463,17 @@ impl<O: FusedObjective> Solver<O, PlState> for ProjectedLbfgs<'_> {
             .into_iter()
             .map(|v: f64| v.max(0.0))
             .collect();
+        // A memory from a problem of another dimension is no use (and would misalign).
+        let n = w.len();
+        if !self.scale.is_empty() && self.scale.len() != n
+            || self
+                .pairs
+                .iter()
+                .any(|(s, y, _)| s.len() != n || y.len() != n)
+        {
+            self.pairs.clear();
+            self.scale.clear();
+        }
         let (f, g) = self.evaluate(problem, &w)?;
         Ok((state.param(w).cost(f).gradient(g), None))
     }
