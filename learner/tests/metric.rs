@@ -28,6 +28,16 @@ fn accuracy(p_one: &[f64], triplets: &[Triplet]) -> f64 {
     right as f64 / triplets.len() as f64
 }
 
+/// Stopping rules tight enough that different solvers and paths meet at one optimum.
+fn tight_params() -> LbfgsParams {
+    LbfgsParams {
+        ftol: 1e-13,
+        pgtol: 1e-8,
+        max_iters: 3000,
+        ..LbfgsParams::default()
+    }
+}
+
 /// The simulated crowd: 25,000 answers, 10% spammers, sparse `w*` on 6 of 40 features.
 fn crowd() -> Simulation {
     simulate(&SimulationParams::default()).unwrap()
@@ -349,12 +359,7 @@ fn argmin_and_nlopt_agree_on_the_fixtures() {
     let (mean, scale) = fit_scaling(&table, &[]);
     let std = standardise(&table, &mean, &scale);
     let c = fit_uniform_scale(&std.x, std.dim, &set.triplets);
-    let params = LbfgsParams {
-        ftol: 1e-13,
-        pgtol: 1e-8,
-        max_iters: 3000,
-        ..LbfgsParams::default()
-    };
+    let params = tight_params();
     let lambda = 10.0;
     let obj = TripletObjective::new(&std.x, std.dim, &set.triplets, lambda, DEFAULT_SMOOTHING);
     let w0 = vec![c; std.dim];
@@ -421,12 +426,7 @@ fn fixture_problem() -> (Vec<f64>, usize, Vec<Triplet>, Vec<f64>) {
 fn rescaling_reaches_the_same_optimum_in_fewer_evaluations_on_real_features() {
     let (x, dim, triplets, w0) = fixture_problem();
     let obj = TripletObjective::new(&x, dim, &triplets, 10.0, DEFAULT_SMOOTHING);
-    let tight = LbfgsParams {
-        ftol: 1e-13,
-        pgtol: 1e-8,
-        max_iters: 3000,
-        ..LbfgsParams::default()
-    };
+    let tight = tight_params();
     let plain = LbfgsParams {
         rescale_every: 0,
         ..tight
@@ -500,12 +500,7 @@ fn curvature_diagonal_matches_finite_differences_of_the_margins() {
 fn curvature_memory_carried_along_the_lambda_path_keeps_the_optimum() {
     use learner::metric::solver::{CurvatureMemory, SolverKind, minimise_warm};
     let (x, dim, triplets, w0) = fixture_problem();
-    let params = LbfgsParams {
-        ftol: 1e-13,
-        pgtol: 1e-8,
-        max_iters: 3000,
-        ..LbfgsParams::default()
-    };
+    let params = tight_params();
     let first = TripletObjective::new(&x, dim, &triplets, 3.0, DEFAULT_SMOOTHING);
     let second = TripletObjective::new(&x, dim, &triplets, 10.0, DEFAULT_SMOOTHING);
     let mut memory = CurvatureMemory::default();

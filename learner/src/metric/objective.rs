@@ -202,6 +202,11 @@ impl<'a> TripletObjective<'a> {
         self.triplets.is_empty()
     }
 
+    /// The smoothed root `d = sqrt(s + ε)` of a weighted squared distance (module docs).
+    fn distance(&self, squared: f64) -> f64 {
+        (squared.max(0.0) + self.smoothing).sqrt()
+    }
+
     fn row(&self, i: u32) -> &[f64] {
         let i = i as usize;
         &self.x[i * self.dim..(i + 1) * self.dim]
@@ -214,7 +219,7 @@ impl<'a> TripletObjective<'a> {
             .map(|t| {
                 let (xa, xb, xc) = (self.row(t.a), self.row(t.b), self.row(t.c));
                 let (sab, sac) = weighted_squares(w, xa, xb, xc);
-                (sac.max(0.0) + self.smoothing).sqrt() - (sab.max(0.0) + self.smoothing).sqrt()
+                self.distance(sac) - self.distance(sab)
             })
             .collect()
     }
@@ -230,8 +235,8 @@ impl<'a> TripletObjective<'a> {
         for t in chunk {
             let (xa, xb, xc) = (self.row(t.a), self.row(t.b), self.row(t.c));
             let (sab, sac) = squares_and_sums(w, xa, xb, xc, &mut uu, &mut vv);
-            let dab = (sab.max(0.0) + self.smoothing).sqrt();
-            let dac = (sac.max(0.0) + self.smoothing).sqrt();
+            let dab = self.distance(sab);
+            let dac = self.distance(sac);
             // z = signed margin: positive when the model agrees with the answer.
             let z = if t.q { dac - dab } else { dab - dac };
             loss += softplus(-z);
@@ -257,8 +262,8 @@ impl<'a> TripletObjective<'a> {
         for t in chunk {
             let (xa, xb, xc) = (self.row(t.a), self.row(t.b), self.row(t.c));
             let (sab, sac) = squares_and_sums(w, xa, xb, xc, &mut uu, &mut vv);
-            let dab = (sab.max(0.0) + self.smoothing).sqrt();
-            let dac = (sac.max(0.0) + self.smoothing).sqrt();
+            let dab = self.distance(sab);
+            let dac = self.distance(sac);
             let s = sigmoid(dac - dab);
             let weight = s * (1.0 - s);
             let (cac, cab) = (0.5 / dac, -0.5 / dab);
@@ -277,6 +282,13 @@ impl<'a> TripletObjective<'a> {
     }
 }
 
+/// `acc += v`, element-wise: the in-order reduction of per-chunk partial sums.
+fn add_into(acc: &mut [f64], v: &[f64]) {
+    for (a, x) in acc.iter_mut().zip(v) {
+        *a += x;
+    }
+}
+
 impl FusedObjective for TripletObjective<'_> {
     fn dim(&self) -> usize {
         self.dim
@@ -292,9 +304,7 @@ impl FusedObjective for TripletObjective<'_> {
         let mut f = self.lambda * w.iter().sum::<f64>();
         for (l, g) in parts {
             f += l;
-            for (acc, v) in grad.iter_mut().zip(&g) {
-                *acc += v;
-            }
+            add_into(grad, &g);
         }
         f
     }
@@ -311,9 +321,7 @@ impl FusedObjective for TripletObjective<'_> {
             .collect();
         let mut h = vec![0.0; self.dim];
         for part in parts {
-            for (acc, v) in h.iter_mut().zip(&part) {
-                *acc += v;
-            }
+            add_into(&mut h, &part);
         }
         Some(h)
     }
