@@ -24,6 +24,7 @@ pub mod mask;
 pub mod metric;
 pub mod plane;
 pub mod render;
+mod simd;
 pub mod table;
 pub mod triplets;
 

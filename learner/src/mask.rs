@@ -110,11 +110,12 @@ impl Mask {
 
     /// Set pixels within Euclidean distance `radius` of a set pixel (a disk dilation).
     ///
-    /// Exact and cheap for the small radii used here: with `run[y][x]` the horizontal distance
-    /// from `(x, y)` to the nearest set pixel of row `y`, a pixel is covered iff some row offset
-    /// `dy` with `|dy| ≤ radius` has `run[y+dy][x]² + dy² ≤ radius²`. Runs are stored as `u16`
-    /// (saturating; exact for widths below 65,535) so the per-offset compare handles 8 pixels per
-    /// SSE2 instruction, and rows without any set pixel are skipped as sources.
+    /// Exact and cheap for the small radii used here: a pixel is covered iff some row offset
+    /// `dy` with `|dy| ≤ radius` has a set pixel in row `y + dy` within horizontal distance
+    /// `k(dy) = ⌊√(radius² − dy²)⌋`. Rows are packed 64 pixels to a word, each source row is
+    /// dilated horizontally once per distinct `k` (7 of them for radius 10) by shift-and-or, and
+    /// an output row is the OR of its `2·radius + 1` source rows: a few hundred word operations
+    /// per row instead of one compare per pixel and offset.
     pub fn dilate(&self, radius: f32) -> Mask {
         let (w, h) = (self.width, self.height);
         if w == 0 || h == 0 {
@@ -122,64 +123,32 @@ impl Mask {
         }
         let r = radius.max(0.0).floor() as usize;
         let r2 = radius * radius;
-        let (run, occupied) = self.horizontal_runs();
-        // Row-major sweeps (one per row offset) so the inner loop is a vectorisable compare.
-        let mut data = vec![false; w * h];
+        // k(dy) for dy = 0..=r; `None` where the disk has no pixel at that offset.
+        let reach: Vec<Option<usize>> = (0..=r)
+            .map(|dy| {
+                let budget = r2 - (dy * dy) as f32;
+                (budget >= 0.0).then(|| (budget.sqrt().floor() as usize).min(w))
+            })
+            .collect();
+        let mut distinct: Vec<usize> = reach.iter().flatten().copied().collect();
+        distinct.sort_unstable();
+        distinct.dedup();
+        let source = BitRows::pack(self);
+        // widened[d][y]: row y dilated horizontally by distinct[d].
+        let widened: Vec<BitRows> = distinct.iter().map(|&k| source.widened(k)).collect();
+        let mut out = BitRows::zeros(w, h);
         for y in 0..h {
-            let out = &mut data[y * w..(y + 1) * w];
             for sy in y.saturating_sub(r)..=(y + r).min(h - 1) {
-                if !occupied[sy] {
+                let Some(k) = reach[sy.abs_diff(y)] else {
                     continue;
-                }
-                let dy = sy.abs_diff(y) as f32;
-                let budget = r2 - dy * dy;
-                if budget < 0.0 {
-                    continue;
-                }
-                // run² ≤ budget  ⇔  run ≤ ⌊√budget⌋ for integer runs. Capped below the
-                // saturated "no set pixel" value, which must never pass.
-                let max_run = (budget.sqrt().floor() as u32).min(u32::from(u16::MAX - 1)) as u16;
-                for (o, &d) in out.iter_mut().zip(&run[sy * w..(sy + 1) * w]) {
-                    *o |= d <= max_run;
-                }
+                };
+                let d = distinct
+                    .binary_search(&k)
+                    .expect("k is one of the distinct reaches");
+                out.or_row(y, &widened[d], sy);
             }
         }
-        Mask {
-            width: w,
-            height: h,
-            data,
-        }
-    }
-
-    /// Per pixel, the horizontal distance to the nearest set pixel of its row (saturating at
-    /// `u16::MAX`, which also marks rows with none), and per row whether it has a set pixel.
-    fn horizontal_runs(&self) -> (Vec<u16>, Vec<bool>) {
-        let w = self.width;
-        let mut run = vec![u16::MAX; w * self.height];
-        let mut occupied = vec![false; self.height];
-        for ((row, out), occ) in self
-            .data
-            .chunks_exact(w)
-            .zip(run.chunks_exact_mut(w))
-            .zip(&mut occupied)
-        {
-            *occ = row.contains(&true);
-            if !*occ {
-                continue;
-            }
-            // Forward then backward sweep; the backward one keeps the nearer of the two.
-            let mut d = u16::MAX;
-            for (o, &set) in out.iter_mut().zip(row) {
-                d = if set { 0 } else { d.saturating_add(1) };
-                *o = d;
-            }
-            d = u16::MAX;
-            for (o, &set) in out.iter_mut().zip(row).rev() {
-                d = if set { 0 } else { d.saturating_add(1) };
-                *o = (*o).min(d);
-            }
-        }
-        (run, occupied)
+        out.unpack()
     }
 
     /// Fills holes: unset pixels not 4-connected to the image border through unset pixels.
@@ -277,14 +246,167 @@ fn push_open_spans(
     }
 }
 
-/// Whether an RGB pixel is white paper (every channel ≥ [`WHITE_THRESHOLD`]).
+/// A mask with each row packed into 64-pixel words (bit `x % 64` of word `x / 64` is pixel `x`;
+/// the bits past the row's end are zero).
+struct BitRows {
+    width: usize,
+    height: usize,
+    words_per_row: usize,
+    words: Vec<u64>,
+}
+
+impl BitRows {
+    fn zeros(width: usize, height: usize) -> Self {
+        let words_per_row = width.div_ceil(64);
+        Self {
+            width,
+            height,
+            words_per_row,
+            words: vec![0; words_per_row * height],
+        }
+    }
+
+    fn pack(mask: &Mask) -> Self {
+        let mut rows = Self::zeros(mask.width, mask.height);
+        for (row, words) in mask
+            .data
+            .chunks_exact(mask.width)
+            .zip(rows.words.chunks_exact_mut(rows.words_per_row))
+        {
+            for (chunk, word) in row.chunks(64).zip(words) {
+                *word = chunk
+                    .chunks(8)
+                    .enumerate()
+                    .fold(0, |acc, (byte, eight)| acc | pack_byte(eight) << (8 * byte));
+            }
+        }
+        rows
+    }
+
+    fn unpack(&self) -> Mask {
+        let mut data = Vec::with_capacity(self.width * self.height);
+        for words in self.words.chunks_exact(self.words_per_row) {
+            let mut left = self.width;
+            for byte in words.iter().flat_map(|word| word.to_le_bytes()) {
+                let take = left.min(8);
+                data.extend_from_slice(&UNPACKED_BYTES[byte as usize][..take]);
+                left -= take;
+            }
+        }
+        Mask {
+            width: self.width,
+            height: self.height,
+            data,
+        }
+    }
+
+    /// Every row dilated horizontally by `k` pixels. The reach grows by shifted copies of
+    /// itself (0 → 1 → 3 → 7 → …), so `k` costs about log₂ k shift-and-or sweeps.
+    fn widened(&self, k: usize) -> Self {
+        let mut out = Self {
+            width: self.width,
+            height: self.height,
+            words_per_row: self.words_per_row,
+            words: self.words.clone(),
+        };
+        let mut scratch = vec![0u64; self.words_per_row];
+        let mut padded = Vec::new();
+        for row in out.words.chunks_exact_mut(self.words_per_row) {
+            if row.iter().all(|&word| word == 0) {
+                continue;
+            }
+            let mut reach = 0;
+            while reach < k {
+                let step = (reach + 1).min(k - reach);
+                scratch.copy_from_slice(row);
+                or_shifted(row, &scratch, step, &mut padded);
+                reach += step;
+            }
+            clear_tail(row, self.width);
+        }
+        out
+    }
+
+    /// Row `y` of `self` |= row `sy` of `other`.
+    fn or_row(&mut self, y: usize, other: &BitRows, sy: usize) {
+        let n = self.words_per_row;
+        let src = &other.words[sy * n..(sy + 1) * n];
+        for (dst, &word) in self.words[y * n..(y + 1) * n].iter_mut().zip(src) {
+            *dst |= word;
+        }
+    }
+}
+
+/// Up to eight pixels as the low bits of a byte (pixel `j` → bit `j`). Each `bool` is one byte
+/// holding 0 or 1, so the multiplication gathers byte `j` into bit `56 + j` without carries.
 #[inline]
+fn pack_byte(eight: &[bool]) -> u64 {
+    let mut bytes = [0u8; 8];
+    for (b, &set) in bytes.iter_mut().zip(eight) {
+        *b = set as u8;
+    }
+    u64::from_le_bytes(bytes).wrapping_mul(0x0102_0408_1020_4080) >> 56
+}
+
+/// `UNPACKED_BYTES[b][j]` is bit `j` of `b`.
+const UNPACKED_BYTES: [[bool; 8]; 256] = {
+    let mut table = [[false; 8]; 256];
+    let mut b = 0;
+    while b < 256 {
+        let mut j = 0;
+        while j < 8 {
+            table[b][j] = b >> j & 1 == 1;
+            j += 1;
+        }
+        b += 1;
+    }
+    table
+};
+
+/// `row |= bits << step | bits >> step` across word boundaries, towards higher and lower pixel
+/// indices alike; bits shifted past either end are dropped (the caller clears the tail).
+/// `padded` is scratch.
+fn or_shifted(row: &mut [u64], bits: &[u64], step: usize, padded: &mut Vec<u64>) {
+    let n = bits.len();
+    let (whole, part) = (step / 64, step % 64);
+    // `bits` with `whole + 1` zero words on each side, so every read below is in bounds.
+    let margin = whole + 1;
+    padded.clear();
+    padded.resize(n + 2 * margin, 0);
+    padded[margin..margin + n].copy_from_slice(bits);
+    for (i, out) in row.iter_mut().enumerate() {
+        let at = i + margin;
+        // Pixel x moves to x + step (towards higher words), and to x − step.
+        let (up, down) = if part == 0 {
+            (padded[at - whole], padded[at + whole])
+        } else {
+            (
+                padded[at - whole] << part | padded[at - whole - 1] >> (64 - part),
+                padded[at + whole] >> part | padded[at + whole + 1] << (64 - part),
+            )
+        };
+        *out |= up | down;
+    }
+}
+
+/// Zeroes the bits past pixel `width − 1` in the row's last word.
+fn clear_tail(row: &mut [u64], width: usize) {
+    if let Some(last) = row.last_mut()
+        && !width.is_multiple_of(64)
+    {
+        *last &= (1u64 << (width % 64)) - 1;
+    }
+}
+
+/// Whether an RGB pixel is white paper (every channel ≥ [`WHITE_THRESHOLD`]).
+#[inline(always)]
 pub fn is_white(p: [u8; 3]) -> bool {
     p.iter().all(|&c| c >= WHITE_THRESHOLD)
 }
 
+crate::simd::vectorised_fn! {
 /// The non-white pixels of an image.
-pub fn non_white(image: &RgbImage) -> Mask {
+pub fn non_white<'a>(image: &'a RgbImage) -> Mask {
     Mask {
         width: image.width() as usize,
         height: image.height() as usize,
@@ -294,6 +416,7 @@ pub fn non_white(image: &RgbImage) -> Mask {
             .map(|p| !is_white([p[0], p[1], p[2]]))
             .collect(),
     }
+}
 }
 
 /// The drawing region Ω of §5.3: non-white pixels, dilated by [`REGION_DILATION`] px, holes
@@ -427,6 +550,17 @@ mod tests {
         #[test]
         fn dilation_matches_the_distance_transform(w in 1usize..30, h in 1usize..30, radius in 0.0f32..12.0, seed in any::<u64>()) {
             let data = (0..w * h).map(|i| (seed.wrapping_mul(i as u64 + 1).rotate_left(17) % 23) == 0).collect();
+            let mask = Mask { width: w, height: h, data };
+            let dist2 = squared_distance_to_set(&mask);
+            let expected: Vec<bool> = dist2.iter().map(|&d| d <= radius * radius).collect();
+            prop_assert_eq!(mask.dilate(radius).data, expected);
+        }
+
+        /// Rows of several words and radii past 64 px exercise the cross-word and whole-word
+        /// shifts of the packed dilation.
+        #[test]
+        fn wide_dilation_matches_the_distance_transform(w in 60usize..260, h in 1usize..6, radius in 0.0f32..170.0, seed in any::<u64>()) {
+            let data = (0..w * h).map(|i| (seed.wrapping_mul(i as u64 + 1).rotate_left(17) % 97) == 0).collect();
             let mask = Mask { width: w, height: h, data };
             let dist2 = squared_distance_to_set(&mask);
             let expected: Vec<bool> = dist2.iter().map(|&d| d <= radius * radius).collect();

@@ -61,55 +61,63 @@ impl Plane {
     /// Separable Gaussian blur with standard deviation `sigma` (kernel radius ⌈3σ⌉, replicate
     /// border). `sigma <= 0` returns a copy.
     pub fn gaussian_blur(&self, sigma: f32) -> Plane {
-        if sigma <= 0.0 || self.data.is_empty() {
-            return self.clone();
-        }
-        let radius = (3.0 * sigma).ceil() as usize;
-        let mut kernel: Vec<f32> = (0..=2 * radius)
-            .map(|i| {
-                let d = i as f32 - radius as f32;
-                (-(d * d) / (2.0 * sigma * sigma)).exp()
-            })
-            .collect();
-        let sum: f32 = kernel.iter().sum();
-        kernel.iter_mut().for_each(|k| *k /= sum);
-        let (w, h) = (self.width, self.height);
-        // Rows: pad each row by replication once, then one vectorisable sweep per tap.
-        let mut tmp = Plane::filled(w, h, 0.0);
-        let mut padded = vec![0.0f32; w + 2 * radius];
-        for y in 0..h {
-            let row = &self.data[y * w..(y + 1) * w];
-            padded[..radius].fill(row[0]);
-            padded[radius..radius + w].copy_from_slice(row);
-            padded[radius + w..].fill(row[w - 1]);
-            let dst = &mut tmp.data[y * w..(y + 1) * w];
-            for (k, &kv) in kernel.iter().enumerate() {
-                for (d, s) in dst.iter_mut().zip(&padded[k..k + w]) {
-                    *d += kv * s;
-                }
-            }
-        }
-        // Columns: accumulate whole rows so the inner loop runs along memory.
-        let mut out = Plane::filled(w, h, 0.0);
-        for y in 0..h {
-            let dst = &mut out.data[y * w..(y + 1) * w];
-            for (k, &kv) in kernel.iter().enumerate() {
-                let sy =
-                    (y as isize + k as isize - radius as isize).clamp(0, h as isize - 1) as usize;
-                let src = &tmp.data[sy * w..(sy + 1) * w];
-                for (d, s) in dst.iter_mut().zip(src) {
-                    *d += kv * s;
-                }
-            }
-        }
-        out
+        gaussian_blur(self, sigma)
     }
 }
 
+crate::simd::vectorised_fn! {
+/// [`Plane::gaussian_blur`].
+fn gaussian_blur<'a>(plane: &'a Plane, sigma: f32) -> Plane {
+    if sigma <= 0.0 || plane.data.is_empty() {
+        return plane.clone();
+    }
+    let radius = (3.0 * sigma).ceil() as usize;
+    let mut kernel: Vec<f32> = (0..=2 * radius)
+        .map(|i| {
+            let d = i as f32 - radius as f32;
+            (-(d * d) / (2.0 * sigma * sigma)).exp()
+        })
+        .collect();
+    let sum: f32 = kernel.iter().sum();
+    kernel.iter_mut().for_each(|k| *k /= sum);
+    let (w, h) = (plane.width, plane.height);
+    // Rows: pad each row by replication once, then one vectorisable sweep per tap.
+    let mut tmp = Plane::filled(w, h, 0.0);
+    let mut padded = vec![0.0f32; w + 2 * radius];
+    for y in 0..h {
+        let row = &plane.data[y * w..(y + 1) * w];
+        padded[..radius].fill(row[0]);
+        padded[radius..radius + w].copy_from_slice(row);
+        padded[radius + w..].fill(row[w - 1]);
+        let dst = &mut tmp.data[y * w..(y + 1) * w];
+        for (k, &kv) in kernel.iter().enumerate() {
+            for (d, s) in dst.iter_mut().zip(&padded[k..k + w]) {
+                *d += kv * s;
+            }
+        }
+    }
+    // Columns: accumulate whole rows so the inner loop runs along memory.
+    let mut out = Plane::filled(w, h, 0.0);
+    for y in 0..h {
+        let dst = &mut out.data[y * w..(y + 1) * w];
+        for (k, &kv) in kernel.iter().enumerate() {
+            let sy =
+                (y as isize + k as isize - radius as isize).clamp(0, h as isize - 1) as usize;
+            let src = &tmp.data[sy * w..(sy + 1) * w];
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d += kv * s;
+            }
+        }
+    }
+    out
+}
+}
+
+crate::simd::vectorised_fn! {
 /// Luma in `[0, 1]` with the Rec. 601 weights (0.299, 0.587, 0.114) on gamma-encoded sRGB, the
 /// convention of MATLAB's `rgb2gray` and scikit-image's `rgb2gray` predecessor used by the paper's
 /// era of tools.
-pub fn luma(image: &RgbImage) -> Plane {
+pub fn luma<'a>(image: &'a RgbImage) -> Plane {
     let data = image
         .as_raw()
         .chunks_exact(3)
@@ -120,6 +128,7 @@ pub fn luma(image: &RgbImage) -> Plane {
         height: image.height() as usize,
         data,
     }
+}
 }
 
 /// Halves an RGB image by averaging 2x2 blocks (rounding to nearest).

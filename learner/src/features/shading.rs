@@ -111,7 +111,7 @@ pub fn compute(p: &Prepared, out: &mut [f64]) {
 
 /// The bin of `value ≥ 0` among [`BINS`] equal bins on `[0, top]`; values at or above `top`
 /// go to the last bin.
-#[inline]
+#[inline(always)]
 fn bin_of(value: f32, top: f32) -> usize {
     // `as usize` saturates (NaN → 0), so no input can index out of bounds.
     ((value * (BINS as f32 / top)) as usize).min(BINS - 1)
@@ -121,6 +121,7 @@ fn bin_of(value: f32, top: f32) -> usize {
 /// `m2` (length `w`). The Sobel kernel is separated: `sv` holds the vertical 1-2-1 smoothing
 /// and `dv` the vertical difference of every channel sample, so the horizontal passes run over
 /// contiguous, interleaved RGB samples (`±3` is one pixel) and vectorise. `q` is scratch.
+#[inline(always)]
 fn row_squared_gradients(
     above: &[u8],
     row: &[u8],
@@ -172,9 +173,15 @@ fn row_squared_gradients(
     }
 }
 
+crate::simd::vectorised_fn! {
 /// Fills the colour (eq. 5.3, on Φ) and black-pixel gradient histograms of `image` over
 /// `region`, each normalised by |region|. All zeros for an empty or mismatched region.
-fn gradient_histograms(image: &RgbImage, region: &Mask, colour: &mut [f64], black: &mut [f64]) {
+fn gradient_histograms<'a>(
+    image: &'a RgbImage,
+    region: &'a Mask,
+    colour: &'a mut [f64],
+    black: &'a mut [f64],
+) -> () {
     colour.fill(0.0);
     black.fill(0.0);
     let (w, h) = (image.width() as usize, image.height() as usize);
@@ -232,6 +239,7 @@ fn gradient_histograms(image: &RgbImage, region: &Mask, colour: &mut [f64], blac
     for (o, &c) in black.iter_mut().zip(&black_hist) {
         *o = c as f64 / nf;
     }
+}
 }
 
 #[cfg(test)]

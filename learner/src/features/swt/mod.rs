@@ -221,7 +221,27 @@ impl ScaleInput<'_> {
     /// Whether the disk of radius [`CONTOUR_RADIUS`] around `i` holds both silhouette and
     /// non-silhouette pixels (off-image counts as non-silhouette).
     fn near_contour(&self, i: usize) -> bool {
-        let (x, y) = ((i % self.width) as isize, (i / self.width) as isize);
+        const _: () = assert!(
+            CONTOUR_RADIUS == 2,
+            "the interior path below spells out r = 2"
+        );
+        let (w, h) = (self.width, self.height);
+        let (xu, yu) = (i % w, i / w);
+        if (2..w.saturating_sub(2)).contains(&xu) && (2..h.saturating_sub(2)).contains(&yu) {
+            // The whole disk is inside the image: its 13 pixels (dx² + dy² ≤ 4: rows of 1, 3,
+            // 5, 3 and 1) by fixed offsets, without bounds tests. Mixed iff the count of
+            // silhouette pixels is neither 0 nor 13.
+            let s = self.silhouette;
+            let row = |dy: isize, reach: isize| -> usize {
+                let centre = (i as isize + dy * w as isize) as usize;
+                (centre - reach as usize..=centre + reach as usize)
+                    .map(|j| s[j] as usize)
+                    .sum()
+            };
+            let inside = row(-2, 0) + row(-1, 1) + row(0, 2) + row(1, 1) + row(2, 0);
+            return inside != 0 && inside != 13;
+        }
+        let (x, y) = (xu as isize, yu as isize);
         let (mut inside, mut outside) = (false, false);
         for oy in -CONTOUR_RADIUS..=CONTOUR_RADIUS {
             for ox in -CONTOUR_RADIUS..=CONTOUR_RADIUS {
@@ -293,12 +313,14 @@ fn for_each_scale(p: &Prepared, mut f: impl FnMut(usize, &ScaleInput)) {
     }
 }
 
+crate::simd::vectorised_fn! {
 /// The gradient magnitude `√(dx² + dy²)` of every pixel.
-fn magnitudes(dx: &[f32], dy: &[f32]) -> Vec<f32> {
+fn magnitudes<'a>(dx: &'a [f32], dy: &'a [f32]) -> Vec<f32> {
     dx.iter()
         .zip(dy)
         .map(|(&x, &y)| (x * x + y * y).sqrt())
         .collect()
+}
 }
 
 /// Edge kind index: outer (silhouette contour) rays.
@@ -334,8 +356,10 @@ struct Workspace {
     rays: Vec<Ray>,
     /// Pixel indices of the accepted rays, concatenated (each ray from `p` to `q` inclusive).
     pixels: Vec<u32>,
-    /// Median scratch.
-    scratch: Vec<f32>,
+    /// [`cell_flags`] of the current scale.
+    flags: Vec<u8>,
+    /// Median scratch: one ray's map values as bits (non-negative floats order as their bits).
+    scratch: Vec<u32>,
 }
 
 impl Workspace {
@@ -348,17 +372,26 @@ impl Workspace {
             }
         }
         self.rays.clear();
-        self.pixels.clear();
+        cell_flags(input, &mut self.flags);
+        // `pixels[..used]` holds the accepted rays; the walk writes past `used` and a rejected
+        // ray is forgotten by not advancing it. The buffer only ever grows, so a walk of up to
+        // `w + h + 1` cells always has room without a capacity check per cell.
+        let longest = input.width + input.height + 1;
+        let mut used = 0;
         // Pass 1: cast, keep accepted rays, minimum width per pixel.
         for i in 0..n {
             if !input.edges[i] {
                 continue;
             }
-            let start = self.pixels.len();
-            let Some(q) = cast_ray(input, i, &mut self.pixels) else {
-                self.pixels.truncate(start);
+            if self.pixels.len() < used + longest {
+                self.pixels.resize(used + longest, 0);
+            }
+            let walk = cast_ray(input, &self.flags, i, &mut self.pixels[used..]);
+            let Some(q) = walk.end else {
                 continue;
             };
+            let (start, end) = (used, used + walk.cells);
+            used = end;
             let (px, py) = input.refined(i);
             let (qx, qy) = input.refined(q);
             let width = (px - qx).hypot(py - qy);
@@ -368,12 +401,12 @@ impl Workspace {
                 INNER
             };
             let map = &mut self.maps[kind];
-            for &j in &self.pixels[start..] {
+            for &j in &self.pixels[start..end] {
                 lower_to(&mut map[j as usize], width);
             }
             self.rays.push(Ray {
                 start: start as u32,
-                end: self.pixels.len() as u32,
+                end: end as u32,
                 kind: kind as u8,
             });
         }
@@ -383,14 +416,18 @@ impl Workspace {
             let ray_pixels = &self.pixels[ray.start as usize..ray.end as usize];
             self.scratch.clear();
             self.scratch
-                .extend(ray_pixels.iter().map(|&j| map[j as usize]));
-            // A ray that no shorter ray crossed holds one value: its median changes nothing.
-            let first = self.scratch[0];
-            if self.scratch.iter().all(|&v| v == first) {
+                .extend(ray_pixels.iter().map(|&j| map[j as usize].to_bits()));
+            // Every value is a width (finite, ≥ +0), so the bits order like the values. When
+            // the top `len - mid` values all equal the ray's maximum, the median is that
+            // maximum and capping changes nothing (this includes a ray no shorter ray crossed).
+            let mid = self.scratch.len() / 2;
+            let top = self.scratch.iter().copied().fold(0, u32::max);
+            let at_top = self.scratch.iter().filter(|&&v| v == top).count();
+            if at_top >= self.scratch.len() - mid {
                 continue;
             }
-            let mid = self.scratch.len() / 2;
-            let (_, &mut median, _) = self.scratch.select_nth_unstable_by(mid, f32::total_cmp);
+            let (_, &mut median, _) = self.scratch.select_nth_unstable(mid);
+            let median = f32::from_bits(median);
             for &j in ray_pixels {
                 lower_to(&mut map[j as usize], median);
             }
@@ -428,56 +465,113 @@ impl Workspace {
     }
 }
 
-/// `*v = v.min(x)` for the values met here (the maps never hold NaN; a NaN `x` leaves `*v` as
-/// `min` would), as a plain compare instead of `min`'s NaN handling.
+/// `*v = v.min(x)` for the values met here: widths, finite and ≥ +0, or `INFINITY`. Such floats
+/// order like their bit patterns, so this is an integer minimum, without a branch (whether a
+/// crossing ray is shorter is a coin toss for the branch predictor) and without `min`'s NaN
+/// handling.
 #[inline]
 fn lower_to(v: &mut f32, x: f32) {
-    if x < *v {
-        *v = x;
+    debug_assert!(x >= 0.0 && *v >= 0.0, "{x} {v}");
+    *v = f32::from_bits(v.to_bits().min(x.to_bits()));
+}
+
+/// [`cell_flags`] bit: the pixel is in Ω at this scale.
+const IN_REGION: u8 = 1;
+/// [`cell_flags`] bit: the pixel is a Canny edge at this scale.
+const ON_EDGE: u8 = 2;
+
+/// Ω and the edges of one scale as one byte per pixel ([`IN_REGION`] | [`ON_EDGE`]), on a grid
+/// padded by one empty pixel on every side (`(width + 2) × (height + 2)`): a ray leaving the
+/// image steps onto the padding, which is outside Ω, so the walk needs no bounds test of its
+/// own and each step costs one load.
+fn cell_flags(input: &ScaleInput, flags: &mut Vec<u8>) {
+    let (w, h) = (input.width, input.height);
+    let padded_w = w + 2;
+    flags.clear();
+    flags.resize(padded_w * (h + 2), 0);
+    for ((out, region), edges) in flags
+        .chunks_exact_mut(padded_w)
+        .skip(1)
+        .zip(input.region.chunks_exact(w))
+        .zip(input.edges.chunks_exact(w))
+    {
+        for ((o, &r), &e) in out[1..=w].iter_mut().zip(region).zip(edges) {
+            *o = (r as u8 * IN_REGION) | (e as u8 * ON_EDGE);
+        }
     }
 }
 
-/// Walks the ray from edge pixel `i` along −∇I, pushing every pixel it passes through (from `i`
-/// to `q` inclusive) onto `pixels`. Returns `q` if the ray is accepted; on rejection the caller
-/// truncates `pixels`.
-fn cast_ray(input: &ScaleInput, i: usize, pixels: &mut Vec<u32>) -> Option<usize> {
+/// Where a ray walk ended.
+struct Walk {
+    /// `q`, when the ray is accepted.
+    end: Option<usize>,
+    /// Pixels written to the buffer, from `p` to where the walk stopped.
+    cells: usize,
+}
+
+/// All ones when `condition` holds, else zero: for the branch-free selects of [`cast_ray`].
+#[inline]
+fn all_ones_if(condition: bool) -> isize {
+    -(condition as isize)
+}
+
+/// Walks the ray from edge pixel `i` along −∇I, writing every pixel it passes through (from `i`
+/// to `q` inclusive) to `pixels` (at least `width + height + 1` long). `flags` is [`cell_flags`]
+/// of `input`.
+fn cast_ray(input: &ScaleInput, flags: &[u8], i: usize, pixels: &mut [u32]) -> Walk {
+    let rejected = Walk {
+        end: None,
+        cells: 0,
+    };
     let (w, h) = (input.width, input.height);
     let (gx, gy) = (input.dx[i], input.dy[i]);
     let g = (gx * gx + gy * gy).sqrt();
     if !(g > 0.0 && g.is_finite()) {
-        return None;
+        return rejected;
     }
     let (ux, uy) = (-gx / g, -gy / g);
     let (x0, y0) = ((i % w) as isize, (i / w) as isize);
     let (mut x, mut y) = (x0, y0);
     let step_x: isize = if ux > 0.0 { 1 } else { -1 };
     let step_y: isize = if uy > 0.0 { 1 } else { -1 };
-    let delta_x = 1.0 / ux.abs(); // INFINITY when ux == 0
-    let delta_y = 1.0 / uy.abs();
+    let delta_x = 1.0f32 / ux.abs(); // INFINITY when ux == 0
+    let delta_y = 1.0f32 / uy.abs();
     let (mut next_x, mut next_y) = (0.5 * delta_x, 0.5 * delta_y);
-    pixels.push(i as u32);
+    // The same pixel in the image and in the padded flag grid.
+    let padded_w = (w + 2) as isize;
+    let (mut j, mut padded_j) = (i as isize, (y0 + 1) * padded_w + x0 + 1);
+    let (step_j_y, step_padded_y) = (step_y * w as isize, step_y * padded_w);
+    pixels[0] = i as u32;
     // A 4-connected walk inside the image visits at most w + h cells.
-    for _ in 0..w + h {
-        if next_x < next_y {
-            x += step_x;
-            next_x += delta_x;
-        } else {
-            y += step_y;
-            next_y += delta_y;
+    for (cells, slot) in pixels[..=w + h].iter_mut().enumerate().skip(1) {
+        // Branch-free selects (masks, not `if`s, which the compiler turns back into a branch):
+        // along a diagonal the axis alternates unpredictably, and a mispredicted branch per
+        // cell cost more than the rest of the step. Adding +0.0 leaves the other distance as
+        // it was, bit for bit.
+        let along_x = all_ones_if(next_x < next_y);
+        x += step_x & along_x;
+        y += step_y & !along_x;
+        j += step_x & along_x | step_j_y & !along_x;
+        padded_j += step_x & along_x | step_padded_y & !along_x;
+        let float_mask = along_x as u32;
+        next_x += f32::from_bits(delta_x.to_bits() & float_mask);
+        next_y += f32::from_bits(delta_y.to_bits() & !float_mask);
+        let cell = flags[padded_j as usize];
+        if cell & IN_REGION == 0 {
+            // Outside Ω, or off the image onto the padding.
+            return rejected;
         }
-        if x < 0 || y < 0 || x as usize >= w || y as usize >= h {
-            return None;
-        }
-        let j = y as usize * w + x as usize;
-        if !input.region[j] {
-            return None;
-        }
-        pixels.push(j as u32);
-        if input.edges[j] && ((x - x0).abs() > 1 || (y - y0).abs() > 1) {
+        *slot = j as u32;
+        if cell & ON_EDGE != 0 && ((x - x0).abs() > 1 || (y - y0).abs() > 1) {
+            let j = j as usize;
             let (qx, qy) = (input.dx[j], input.dy[j]);
             let gq = (qx * qx + qy * qy).sqrt();
-            return (gx * qx + gy * qy < -OPPOSITE_COS * g * gq).then_some(j);
+            let accepted = gx * qx + gy * qy < -OPPOSITE_COS * g * gq;
+            return Walk {
+                end: accepted.then_some(j),
+                cells: cells + 1,
+            };
         }
     }
-    None
+    rejected
 }
