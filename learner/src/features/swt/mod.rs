@@ -543,7 +543,10 @@ fn cast_ray(input: &ScaleInput, flags: &[u8], i: usize, pixels: &mut [u32]) -> W
     let (step_j_y, step_padded_y) = (step_y * w as isize, step_y * padded_w);
     pixels[0] = i as u32;
     // A 4-connected walk inside the image visits at most w + h cells.
-    for (cells, slot) in pixels[..=w + h].iter_mut().enumerate().skip(1) {
+    // Indexing by the step count, not `iter_mut().enumerate()`: that form ran the SWT 30%
+    // slower (LLVM no longer kept the walk's state in registers).
+    #[allow(clippy::needless_range_loop)]
+    for cells in 1..=w + h {
         // Branch-free selects (masks, not `if`s, which the compiler turns back into a branch):
         // along a diagonal the axis alternates unpredictably, and a mispredicted branch per
         // cell cost more than the rest of the step. Adding +0.0 leaves the other distance as
@@ -561,7 +564,7 @@ fn cast_ray(input: &ScaleInput, flags: &[u8], i: usize, pixels: &mut [u32]) -> W
             // Outside Ω, or off the image onto the padding.
             return rejected;
         }
-        *slot = j as u32;
+        pixels[cells] = j as u32;
         if cell & ON_EDGE != 0 && ((x - x0).abs() > 1 || (y - y0).abs() > 1) {
             let j = j as usize;
             let (qx, qy) = (input.dx[j], input.dy[j]);
