@@ -194,12 +194,7 @@ pub fn compute(p: &Prepared, out: &mut [f64]) {
     if out.len() != COUNT {
         return;
     }
-    let levels: Vec<u8> = p
-        .grey
-        .data
-        .iter()
-        .map(|&v| quantise(super::lbp::round_u8(v * 255.0)))
-        .collect();
+    let levels: Vec<u8> = p.grey8.iter().map(|&g| quantise(g)).collect();
     if let Some(f) = haralick_from_levels(
         &levels,
         p.grey.width,
@@ -239,38 +234,7 @@ pub fn haralick_from_levels(
     if width == 0 || height == 0 {
         return Some([0.0; COUNT]);
     }
-    // One pass over a copy padded with a sentinel level (≥ any `n_levels`) on the left, right
-    // and bottom, so that every pixel has its four forward neighbours; pixels outside the
-    // mask or out of range become the sentinel and never pair.
-    const SENTINEL: u8 = u8::MAX;
-    let stride = width + 2;
-    let mut cells = vec![SENTINEL; stride * (height + 1)];
-    for y in 0..height {
-        for x in 0..width {
-            let i = y * width + x;
-            let inside = mask.is_none_or(|m| m.data[i]) && usize::from(levels[i]) < n_levels;
-            if inside {
-                cells[y * stride + x + 1] = levels[i];
-            }
-        }
-    }
-    // counts[d][a * MAX_LEVELS + b]: directed pairs (a at a pixel, b at its neighbour).
-    let mut counts = [[0u32; MAX_LEVELS * MAX_LEVELS]; 4];
-    let steps = OFFSETS.map(|(dy, dx)| (dy * stride as isize + dx) as usize);
-    for y in 0..height {
-        for i in y * stride + 1..y * stride + 1 + width {
-            let a = usize::from(cells[i]);
-            if a >= n_levels {
-                continue;
-            }
-            for (d, &step) in steps.iter().enumerate() {
-                let b = usize::from(cells[i.wrapping_add(step)]);
-                if b < n_levels {
-                    counts[d][a * MAX_LEVELS + b] += 1;
-                }
-            }
-        }
-    }
+    let counts = co_occurrences(levels, width, height, n_levels, mask);
     let mut sum = [0.0; COUNT];
     let mut directions = 0u32;
     for directed in &counts {
@@ -290,6 +254,97 @@ pub fn haralick_from_levels(
         }
     }
     Some(sum)
+}
+
+crate::simd::vectorised_fn! {
+/// The directed pair counts per offset of [`haralick_from_levels`] (arguments checked there):
+/// `counts[d][a * MAX_LEVELS + b]` pairs with level `a` at a pixel and `b` at its neighbour.
+fn co_occurrences<'a>(
+    levels: &'a [u8],
+    width: usize,
+    height: usize,
+    n_levels: usize,
+    mask: Option<&'a Mask>,
+) -> [[u32; MAX_LEVELS * MAX_LEVELS]; 4] {
+    // One pass over a copy padded with a sentinel level (≥ any `n_levels`) on the left, right
+    // and bottom, so that every pixel has its four forward neighbours; pixels outside the
+    // mask or out of range become the sentinel and never pair.
+    const SENTINEL: u8 = u8::MAX;
+    let stride = width + 2;
+    let mut cells = vec![SENTINEL; stride * (height + 1)];
+    for y in 0..height {
+        let row = y * width..(y + 1) * width;
+        let dst = &mut cells[y * stride + 1..y * stride + 1 + width];
+        let keep = |level: u8, inside: bool| {
+            if inside && usize::from(level) < n_levels {
+                level
+            } else {
+                SENTINEL
+            }
+        };
+        match mask {
+            Some(m) => {
+                for ((d, &level), &inside) in dst.iter_mut().zip(&levels[row.clone()]).zip(&m.data[row]) {
+                    *d = keep(level, inside);
+                }
+            }
+            None => {
+                for (d, &level) in dst.iter_mut().zip(&levels[row]) {
+                    *d = keep(level, true);
+                }
+            }
+        }
+    }
+    let mut counts = [[0u32; MAX_LEVELS * MAX_LEVELS]; 4];
+    let steps = OFFSETS.map(|(dy, dx)| (dy * stride as isize + dx) as usize);
+    debug_assert_eq!(OFFSETS, [(0, 1), (1, 1), (1, 0), (1, -1)], "the flat-block test below");
+    for y in 0..height {
+        let row_start = y * stride + 1;
+        let row_end = row_start + width;
+        let mut block = row_start;
+        while block < row_end {
+            let end = (block + FLAT_BLOCK).min(row_end);
+            // A block of one level whose right, lower-left, lower and lower-right neighbours
+            // all have that level too (a flat area, most of clip art) adds one pair per pixel
+            // and direction to the diagonal: counted at once instead of pixel by pixel.
+            let level = cells[block];
+            let flat = usize::from(level) < n_levels
+                && all_equal(&cells[block..=end], level)
+                && all_equal(&cells[block + stride - 1..=end + stride], level);
+            if flat {
+                let a = usize::from(level);
+                for directed in &mut counts {
+                    directed[a * MAX_LEVELS + a] += (end - block) as u32;
+                }
+                block = end;
+                continue;
+            }
+            for i in block..end {
+                let a = usize::from(cells[i]);
+                if a >= n_levels {
+                    continue;
+                }
+                for (d, &step) in steps.iter().enumerate() {
+                    let b = usize::from(cells[i.wrapping_add(step)]);
+                    if b < n_levels {
+                        counts[d][a * MAX_LEVELS + b] += 1;
+                    }
+                }
+            }
+            block = end;
+        }
+    }
+    counts
+}
+}
+
+/// Pixels per block of the flat-area shortcut in [`haralick_from_levels`].
+const FLAT_BLOCK: usize = 16;
+
+/// Whether every byte of `cells` is `level` (a fold rather than `all`, so it vectorises).
+#[inline(always)]
+fn all_equal(cells: &[u8], level: u8) -> bool {
+    cells.iter().fold(true, |same, &c| same & (c == level))
 }
 
 /// `−q·ln q`, 0 for `q ≤ 0`.

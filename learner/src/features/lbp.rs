@@ -102,8 +102,10 @@ pub fn compute(p: &Prepared, out: &mut [f64]) {
     if !same_size(&p.silhouette) {
         return;
     }
-    let grey = grey_u8(&p.grey);
-    let (edge, contour) = histograms(p, &grey);
+    if p.grey8.len() != n {
+        return;
+    }
+    let (edge, contour) = histograms(p, &p.grey8);
     let (edge_out, contour_out) = out.split_at_mut(BINS_PER_SET);
     edge.write_normalised(edge_out);
     contour.write_normalised(contour_out);
@@ -111,7 +113,7 @@ pub fn compute(p: &Prepared, out: &mut [f64]) {
 
 crate::simd::vectorised_fn! {
 /// The code histograms of the edge pixels in Ω and of the external contour (`p`'s planes are
-/// all `width × height`, checked by the caller; `grey` is [`grey_u8`] of `p.grey`).
+/// all `width × height`, checked by the caller; `grey` is `p.grey8`).
 fn histograms<'a>(p: &'a Prepared, grey: &'a [u8]) -> (Histograms, Histograms) {
     let (w, h) = (p.grey.width, p.grey.height);
     let mut edge = Histograms::default();

@@ -74,6 +74,8 @@ pub struct Prepared {
     pub silhouette: Mask,
     /// Luma in `[0,1]` ([`plane::luma`]).
     pub grey: Plane,
+    /// `grey` in 8 bits ([`lbp::grey_u8`]), which LBP samples and GLCM quantises.
+    pub grey8: Vec<u8>,
     /// Canny edges of `grey` with [`CannyParams::default`].
     pub edges: Mask,
     /// Gradients of the Canny-smoothed grey plane.
@@ -98,12 +100,14 @@ impl Prepared {
         let region = non_white.dilate(mask::REGION_DILATION).fill_holes();
         let silhouette = non_white.fill_holes();
         let grey = plane::luma(&image);
+        let grey8 = lbp::grey_u8(&grey);
         let (edges, smoothed_gradients) = edges::canny(&grey, &CannyParams::default());
         Ok(Self {
             image,
             region,
             silhouette,
             grey,
+            grey8,
             edges,
             smoothed_gradients,
         })
