@@ -161,8 +161,8 @@ impl Mask {
         if w == 0 || h == 0 {
             return self.clone();
         }
-        // Per pixel: OPEN, 1 for set, or OUTSIDE.
-        let mut state: Vec<u8> = self.data.iter().map(|&b| b as u8).collect();
+        // Per pixel: OPEN, SET or OUTSIDE.
+        let mut state: Vec<u8> = self.data.iter().map(|&b| b as u8 * SET).collect();
         let mut stack: Vec<(usize, usize)> = Vec::new();
         for x in 0..w {
             stack.push((x, 0));
@@ -177,14 +177,10 @@ impl Mask {
             if row[x] != OPEN {
                 continue;
             }
-            let left = row[..x]
-                .iter()
-                .rposition(|&s| s != OPEN)
-                .map_or(0, |l| l + 1);
-            let right = row[x..]
-                .iter()
-                .position(|&s| s != OPEN)
-                .map_or(w, |r| x + r);
+            // The span's ends: the nearest set or already-outside pixel on each side (memchr's
+            // vectorised byte search; long spans of background are the common case).
+            let left = memchr::memrchr2(SET, OUTSIDE, &row[..x]).map_or(0, |l| l + 1);
+            let right = memchr::memchr2(SET, OUTSIDE, &row[x..]).map_or(w, |r| x + r);
             row[left..right].fill(OUTSIDE);
             for ny in [y.wrapping_sub(1), y + 1] {
                 if ny < h {
@@ -224,6 +220,8 @@ impl Mask {
 
 /// [`Mask::fill_holes`] state of an unset pixel not (yet) reached from the border.
 const OPEN: u8 = 0;
+/// [`Mask::fill_holes`] state of a set pixel.
+const SET: u8 = 1;
 /// [`Mask::fill_holes`] state of an unset pixel reached from the border.
 const OUTSIDE: u8 = 2;
 
@@ -236,13 +234,16 @@ fn push_open_spans(
     y: usize,
     stack: &mut Vec<(usize, usize)>,
 ) {
-    let mut prev_open = false;
-    for (x, &s) in row.iter().enumerate().take(right).skip(left) {
-        let open = s == OPEN;
-        if open && !prev_open {
-            stack.push((x, y));
-        }
-        prev_open = open;
+    // Jumps from run to run with memchr rather than testing every pixel: most of a row is
+    // either already outside or set.
+    let mut x = left;
+    while x < right {
+        let Some(start) = memchr::memchr(OPEN, &row[x..right]) else {
+            return;
+        };
+        x += start;
+        stack.push((x, y));
+        x = memchr::memchr2(SET, OUTSIDE, &row[x..right]).map_or(right, |end| x + end);
     }
 }
 

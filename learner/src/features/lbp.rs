@@ -176,7 +176,13 @@ fn histograms<'a>(p: &'a Prepared, grey: &'a [u8]) -> (Histograms, Histograms) {
 #[inline(always)]
 fn codes_at(grey: &[u8], width: usize, height: usize, x: usize, y: usize) -> [u8; 3] {
     let rings = rings();
-    [0, 1, 2].map(|k| rings[k].code_at(grey, width, height, x, y))
+    // Spelled out: `array::map` goes through a closure the inliner leaves out of line, which
+    // would keep this, the hot loop of LBP, out of the vectorised dispatch.
+    [
+        rings[0].code_at(grey, width, height, x, y),
+        rings[1].code_at(grey, width, height, x, y),
+        rings[2].code_at(grey, width, height, x, y),
+    ]
 }
 
 /// The code counts of one pixel set at the three [`SCALES`], concatenated.
@@ -230,12 +236,10 @@ pub fn grey_u8<'a>(plane: &'a Plane) -> Vec<u8> {
 pub fn round_u8(x: f32) -> u8 {
     let x = x.clamp(0.0, 255.0);
     let whole = x as u8; // truncation; NaN → 0
-    // Exact: `x` and `whole` are within a factor 2 (Sterbenz) or `whole` is 0.
-    if x - f32::from(whole) >= 0.5 {
-        whole + 1
-    } else {
-        whole
-    }
+    // Exact: `x` and `whole` are within a factor 2 (Sterbenz) or `whole` is 0. Adding the
+    // comparison rather than branching on it lets whole images vectorise; `whole` is 255
+    // only when `x` is 255, so the sum never overflows.
+    whole + u8::from(x - f32::from(whole) >= 0.5)
 }
 
 /// `numpy.round(x, 5)`: scale by 10⁵, round half to even, scale back.
