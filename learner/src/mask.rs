@@ -90,22 +90,7 @@ impl Mask {
 
     /// Halves both dimensions; a 2x2 block is set when at least two of its pixels are set.
     pub fn half(&self) -> Mask {
-        let (w, h) = (self.width / 2, self.height / 2);
-        let mut data = Vec::with_capacity(w * h);
-        for y in 0..h {
-            let top = &self.data[2 * y * self.width..][..2 * w];
-            let bottom = &self.data[(2 * y + 1) * self.width..][..2 * w];
-            data.extend(
-                top.chunks_exact(2)
-                    .zip(bottom.chunks_exact(2))
-                    .map(|(t, b)| t[0] as u8 + t[1] as u8 + b[0] as u8 + b[1] as u8 >= 2),
-            );
-        }
-        Mask {
-            width: w,
-            height: h,
-            data,
-        }
+        half_mask(self)
     }
 
     /// Set pixels within Euclidean distance `radius` of a set pixel (a disk dilation).
@@ -397,6 +382,28 @@ fn clear_tail(row: &mut [u64], width: usize) {
     {
         *last &= (1u64 << (width % 64)) - 1;
     }
+}
+
+crate::simd::vectorised_fn! {
+/// [`Mask::half`].
+fn half_mask<'a>(mask: &'a Mask) -> Mask {
+    let (w, h) = (mask.width / 2, mask.height / 2);
+    let mut data = Vec::with_capacity(w * h);
+    for y in 0..h {
+        let top = &mask.data[2 * y * mask.width..][..2 * w];
+        let bottom = &mask.data[(2 * y + 1) * mask.width..][..2 * w];
+        data.extend(
+            top.chunks_exact(2)
+                .zip(bottom.chunks_exact(2))
+                .map(|(t, b)| t[0] as u8 + t[1] as u8 + b[0] as u8 + b[1] as u8 >= 2),
+        );
+    }
+    Mask {
+        width: w,
+        height: h,
+        data,
+    }
+}
 }
 
 /// Whether an RGB pixel is white paper (every channel ≥ [`WHITE_THRESHOLD`]).

@@ -40,22 +40,7 @@ impl Plane {
 
     /// Halves both dimensions by averaging 2x2 blocks (an odd last row/column is dropped).
     pub fn half(&self) -> Plane {
-        let (w, h) = (self.width / 2, self.height / 2);
-        let mut data = Vec::with_capacity(w * h);
-        for y in 0..h {
-            let r0 = &self.data[(2 * y) * self.width..][..2 * w];
-            let r1 = &self.data[(2 * y + 1) * self.width..][..2 * w];
-            data.extend(
-                r0.chunks_exact(2)
-                    .zip(r1.chunks_exact(2))
-                    .map(|(a, b)| 0.25 * (a[0] + a[1] + b[0] + b[1])),
-            );
-        }
-        Plane {
-            width: w,
-            height: h,
-            data,
-        }
+        half_plane(self)
     }
 
     /// Separable Gaussian blur with standard deviation `sigma` (kernel radius ⌈3σ⌉, replicate
@@ -63,6 +48,28 @@ impl Plane {
     pub fn gaussian_blur(&self, sigma: f32) -> Plane {
         gaussian_blur(self, sigma)
     }
+}
+
+crate::simd::vectorised_fn! {
+/// [`Plane::half`].
+fn half_plane<'a>(plane: &'a Plane) -> Plane {
+    let (w, h) = (plane.width / 2, plane.height / 2);
+    let mut data = Vec::with_capacity(w * h);
+    for y in 0..h {
+        let r0 = &plane.data[(2 * y) * plane.width..][..2 * w];
+        let r1 = &plane.data[(2 * y + 1) * plane.width..][..2 * w];
+        data.extend(
+            r0.chunks_exact(2)
+                .zip(r1.chunks_exact(2))
+                .map(|(a, b)| 0.25 * (a[0] + a[1] + b[0] + b[1])),
+        );
+    }
+    Plane {
+        width: w,
+        height: h,
+        data,
+    }
+}
 }
 
 crate::simd::vectorised_fn! {
