@@ -196,7 +196,8 @@ fn canny_vectorised<'a>(plane: &'a Plane, params: &'a CannyParams) -> (Mask, Gra
             stack.push(i);
         }
     }
-    let neighbours = [w + 1, w, w - 1, 1];
+    // (Saturating only so an empty plane, which has no candidates, cannot underflow.)
+    let neighbours = [w + 1, w, w.saturating_sub(1), 1];
     while let Some(i) = stack.pop() {
         for j in neighbours
             .iter()
@@ -299,7 +300,7 @@ mod tests {
 
     #[test]
     fn canny_handles_edges_at_the_image_border_and_tiny_images() {
-        for (w, h) in [(3, 3), (1, 5), (2, 2), (17, 4)] {
+        for (w, h) in [(3, 3), (1, 5), (2, 2), (17, 4), (0, 0), (0, 3), (3, 0)] {
             let p = Plane {
                 width: w,
                 height: h,
