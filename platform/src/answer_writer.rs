@@ -19,14 +19,23 @@
 //! other's question as open and neither would complete the HIT), so the caller reads it after
 //! the commit instead ([`Next::ReadAfterCommit`]).
 
-use sqlx::{AnyPool, Row};
+use std::collections::HashMap;
+use std::future::Future;
+use std::pin::Pin;
+
+use sqlx::{AnyConnection, AnyPool, Connection, Row};
 use tokio::sync::{mpsc, oneshot};
 
 use crate::db::{Backend, now_ms};
 use crate::error::{AppError, Result};
+use crate::flow::{AnswerTarget, TargetQuestion};
+use crate::ids::{AssignmentId, StudyId};
 
 /// Most answers written in one transaction (bounds the time the writer is held).
 pub const MAX_BATCH: usize = 256;
+
+/// Most jobs ([`AnswerWriter::job`]) run in one transaction next to the answers.
+pub const MAX_JOBS: usize = 16;
 
 /// One answer to store.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -59,15 +68,72 @@ pub enum Next {
     ReadAfterCommit,
 }
 
-struct Pending {
-    write: AnswerWrite,
-    reply: oneshot::Sender<Result<Written>>,
+/// One answer as the worker sent it (SQLite, [`AnswerWriter::submit`]): looked up, checked and
+/// stored inside the writer's transaction.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct AnswerSubmit {
+    /// The assignment's bearer token (already checked to be 32 hex digits).
+    pub token: String,
+    /// Question position.
+    pub position: i64,
+    /// The chosen item id.
+    pub choice: i64,
+    /// Client-reported time on the question.
+    pub elapsed_ms: Option<i64>,
+}
+
+/// What a submitted answer did, once its transaction has committed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Submitted {
+    /// The assignment.
+    pub assignment: AssignmentId,
+    /// Its study.
+    pub study: StudyId,
+    /// Its status when the answer was read (`active` or `completed`).
+    pub status: String,
+    /// The same answer had been stored before (idempotent retry).
+    pub duplicate: bool,
+    /// The question asks for reasons.
+    pub ask_reasons: bool,
+    /// The next unanswered position after the commit (exact: read in the same transaction).
+    pub next: Option<i64>,
+}
+
+/// A future borrowing the writer's connection.
+pub type ConnFuture<'c, T> = Pin<Box<dyn Future<Output = T> + Send + 'c>>;
+
+/// Sends a job's outcome to its caller once the transaction's fate is known (`Err`: the commit
+/// failed, with why).
+type Deliver = Box<dyn FnOnce(std::result::Result<(), String>) + Send>;
+
+/// A job erased to: run inside the transaction (within its own savepoint), report whether it
+/// succeeded, and what to deliver after the commit.
+type Job = Box<dyn for<'c> FnOnce(&'c mut AnyConnection) -> ConnFuture<'c, (bool, Deliver)> + Send>;
+
+enum Pending {
+    Write(AnswerWrite, oneshot::Sender<Result<Written>>),
+    Submit(AnswerSubmit, oneshot::Sender<Result<Submitted>>),
+    Job(Job),
 }
 
 /// Handle to the batching task (cheap to clone).
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct AnswerWriter {
     queue: mpsc::UnboundedSender<Pending>,
+}
+
+impl std::fmt::Debug for AnswerWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("AnswerWriter").finish_non_exhaustive()
+    }
+}
+
+fn stopped() -> AppError {
+    AppError::Internal("the answer writer has stopped".into())
+}
+
+fn dropped() -> AppError {
+    AppError::Internal("the answer writer dropped a request".into())
 }
 
 impl AnswerWriter {
@@ -83,41 +149,307 @@ impl AnswerWriter {
     pub async fn write(&self, write: AnswerWrite) -> Result<Written> {
         let (reply, answer) = oneshot::channel();
         self.queue
-            .send(Pending { write, reply })
-            .map_err(|_| AppError::Internal("the answer writer has stopped".into()))?;
-        answer
-            .await
-            .map_err(|_| AppError::Internal("the answer writer dropped a request".into()))?
+            .send(Pending::Write(write, reply))
+            .map_err(|_| stopped())?;
+        answer.await.map_err(|_| dropped())?
+    }
+
+    /// SQLite: looks the answer's assignment and question up, checks it like
+    /// [`AnswerTarget::choose`] and stores it if the question has no answer yet, all inside the
+    /// writer's transaction (one read, one `UPDATE` and one next-position read for the whole
+    /// batch); replies once that transaction has committed. Exact because every SQLite writer
+    /// is serialised (`BEGIN IMMEDIATE`); not for PostgreSQL (see the module comment).
+    pub async fn submit(&self, submit: AnswerSubmit) -> Result<Submitted> {
+        let (reply, answer) = oneshot::channel();
+        self.queue
+            .send(Pending::Submit(submit, reply))
+            .map_err(|_| stopped())?;
+        answer.await.map_err(|_| dropped())?
+    }
+
+    /// Runs `f` inside the writer's next transaction, in a savepoint of its own (an error rolls
+    /// back `f`'s statements only), and returns its result once that transaction has
+    /// committed: a write that shares the answers' group commit (one fsync on SQLite) instead
+    /// of taking turns with them. `f` must not begin or commit a transaction itself.
+    pub async fn job<T, F>(&self, f: F) -> Result<T>
+    where
+        T: Send + 'static,
+        F: for<'c> FnOnce(&'c mut AnyConnection) -> ConnFuture<'c, Result<T>> + Send + 'static,
+    {
+        let (reply, answer) = oneshot::channel::<Result<T>>();
+        let job: Job = Box::new(move |conn: &mut AnyConnection| {
+            Box::pin(async move {
+                let out = f(conn).await;
+                let ok = out.is_ok();
+                let deliver: Deliver = Box::new(move |committed| {
+                    let _ = reply.send(match committed {
+                        Ok(()) => out,
+                        Err(why) => Err(AppError::Internal(format!(
+                            "the write transaction failed: {why}"
+                        ))),
+                    });
+                });
+                (ok, deliver)
+            })
+        });
+        self.queue.send(Pending::Job(job)).map_err(|_| stopped())?;
+        answer.await.map_err(|_| dropped())?
+    }
+}
+
+/// One batch, split by kind.
+#[derive(Default)]
+struct Batch {
+    writes: Vec<(AnswerWrite, oneshot::Sender<Result<Written>>)>,
+    submits: Vec<(AnswerSubmit, oneshot::Sender<Result<Submitted>>)>,
+    jobs: Vec<Job>,
+}
+
+impl Batch {
+    fn len(&self) -> usize {
+        self.writes.len() + self.submits.len()
+    }
+
+    fn push(&mut self, p: Pending) {
+        match p {
+            Pending::Write(w, r) => self.writes.push((w, r)),
+            Pending::Submit(s, r) => self.submits.push((s, r)),
+            Pending::Job(j) => self.jobs.push(j),
+        }
+    }
+
+    fn full(&self) -> bool {
+        self.len() >= MAX_BATCH || self.jobs.len() >= MAX_JOBS
     }
 }
 
 async fn run(writer: AnyPool, backend: Backend, mut rx: mpsc::UnboundedReceiver<Pending>) {
-    let mut batch = Vec::with_capacity(MAX_BATCH);
     while let Some(first) = rx.recv().await {
+        let mut batch = Batch::default();
         batch.push(first);
-        while batch.len() < MAX_BATCH {
+        while !batch.full() {
             match rx.try_recv() {
                 Ok(p) => batch.push(p),
                 Err(_) => break,
             }
         }
-        match write_batch(&writer, backend, &batch).await {
-            Ok(outcomes) => {
-                for (p, n) in batch.drain(..).zip(outcomes) {
-                    // The caller may have gone (client disconnected): nothing to do.
-                    let _ = p.reply.send(Ok(n));
-                }
+        run_batch(&writer, backend, batch).await;
+    }
+}
+
+/// Runs one batch in one transaction and answers every caller after the commit (or with the
+/// error that aborted it: then none of them was stored).
+async fn run_batch(writer: &AnyPool, backend: Backend, batch: Batch) {
+    let Batch {
+        writes,
+        submits,
+        jobs,
+    } = batch;
+    let mut delivers: Vec<Deliver> = Vec::with_capacity(jobs.len());
+    let outcome: Result<(Vec<Written>, Vec<Result<Submitted>>)> = async {
+        let mut tx = match backend {
+            Backend::Sqlite => writer.begin_with("BEGIN IMMEDIATE").await?,
+            Backend::Postgres => writer.begin().await?,
+        };
+        let written = write_batch(&mut tx, backend, &writes).await?;
+        let submitted = submit_batch(&mut tx, &submits).await?;
+        for job in jobs {
+            let mut savepoint = Connection::begin(&mut *tx).await?;
+            let (ok, deliver) = job(&mut savepoint).await;
+            delivers.push(deliver);
+            if ok {
+                savepoint.commit().await?;
+            } else {
+                savepoint.rollback().await?;
             }
-            Err(e) => {
-                let why = e.to_string();
-                for p in batch.drain(..) {
-                    let _ = p.reply.send(Err(AppError::Internal(format!(
-                        "storing the answer failed: {why}"
-                    ))));
-                }
+        }
+        tx.commit().await?;
+        Ok((written, submitted))
+    }
+    .await;
+    match outcome {
+        Ok((written, submitted)) => {
+            for ((_, reply), n) in writes.into_iter().zip(written) {
+                // The caller may have gone (client disconnected): nothing to do.
+                let _ = reply.send(Ok(n));
+            }
+            for ((_, reply), s) in submits.into_iter().zip(submitted) {
+                let _ = reply.send(s);
+            }
+            for deliver in delivers {
+                deliver(Ok(()));
+            }
+        }
+        Err(e) => {
+            let why = e.to_string();
+            let failed = || AppError::Internal(format!("storing the answer failed: {why}"));
+            for (_, reply) in writes {
+                let _ = reply.send(Err(failed()));
+            }
+            for (_, reply) in submits {
+                let _ = reply.send(Err(failed()));
+            }
+            for deliver in delivers {
+                deliver(Err(why.clone()));
             }
         }
     }
+}
+
+/// The assignment and question of every submitted answer (SQLite, one statement for the
+/// batch): `$1` is a JSON array of `[token, position]`, `k` the index into it.
+const SUBMIT_READ: &str = "SELECT j.key AS k, a.id, a.study_id, a.status, q.position, q.choice, \
+     q.ask_reasons, t.b, t.c \
+     FROM json_each($1) j \
+     JOIN assignments a ON a.token = j.value ->> 0 \
+     LEFT JOIN questions q ON q.assignment_id = a.id AND q.position = j.value ->> 1 \
+     LEFT JOIN tuples t ON t.id = q.tuple_id";
+
+/// Stores the answers of `$1` (a JSON array of `[assignment, position, choice, elapsed_ms]`)
+/// whose questions have none; returns the rows it changed.
+const SUBMIT_UPDATE: &str = "UPDATE questions SET choice = j.value ->> 2, answered_at = $2, \
+     elapsed_ms = j.value ->> 3 \
+     FROM json_each($1) j \
+     WHERE questions.assignment_id = j.value ->> 0 AND questions.position = j.value ->> 1 \
+       AND questions.choice IS NULL \
+     RETURNING questions.assignment_id AS a, questions.position AS p";
+
+/// The first open position of each assignment of `$1` (a JSON array of ids) that has one.
+const SUBMIT_NEXT: &str = "SELECT assignment_id AS a, MIN(position) AS p FROM questions \
+     WHERE assignment_id IN (SELECT value FROM json_each($1)) AND choice IS NULL \
+     GROUP BY assignment_id";
+
+/// What one submitted answer resolved to before the `UPDATE`.
+enum Plan {
+    /// Store it (`b` or `c`).
+    Store,
+    /// Already stored with the same choice.
+    Duplicate,
+}
+
+/// The SQLite batch of [`AnswerWriter::submit`]: one read, one `UPDATE` and one next-position
+/// read for all answers, inside the caller's `BEGIN IMMEDIATE` transaction (so what is read is
+/// what is written over). Two answers of the same question in one batch: the first is stored,
+/// the second is a duplicate (same choice) or a conflict, exactly as if they had come one
+/// after the other.
+async fn submit_batch(
+    conn: &mut AnyConnection,
+    submits: &[(AnswerSubmit, oneshot::Sender<Result<Submitted>>)],
+) -> Result<Vec<Result<Submitted>>> {
+    if submits.is_empty() {
+        return Ok(Vec::new());
+    }
+    let keys: Vec<(&str, i64)> = submits
+        .iter()
+        .map(|(s, _)| (s.token.as_str(), s.position))
+        .collect();
+    let keys = serde_json::to_string(&keys).map_err(AppError::internal)?;
+    let rows = sqlx::query(SUBMIT_READ)
+        .bind(keys)
+        .fetch_all(&mut *conn)
+        .await?;
+    let mut targets: Vec<Option<AnswerTarget>> = (0..submits.len()).map(|_| None).collect();
+    for r in &rows {
+        let k: i64 = r.try_get("k")?;
+        let question = match r.try_get::<Option<i64>, _>("position")? {
+            None => None,
+            Some(_) => Some(TargetQuestion {
+                b: r.try_get("b")?,
+                c: r.try_get("c")?,
+                ask_reasons: r.try_get::<i64, _>("ask_reasons")? != 0,
+                choice: r.try_get("choice")?,
+            }),
+        };
+        let slot = targets
+            .get_mut(k as usize)
+            .ok_or_else(|| AppError::Internal("batch read: key out of range".into()))?;
+        *slot = Some(AnswerTarget {
+            assignment: AssignmentId(r.try_get("id")?),
+            study: StudyId(r.try_get("study_id")?),
+            status: r.try_get("status")?,
+            question,
+        });
+    }
+    // Decide each answer in arrival order; `planned` holds this batch's earlier stores.
+    let mut planned: HashMap<(i64, i64), &'static str> = HashMap::new();
+    let mut plans: Vec<Result<(AnswerTarget, Plan)>> = Vec::with_capacity(submits.len());
+    let mut stores: Vec<(i64, i64, &'static str, Option<i64>)> = Vec::new();
+    for ((s, _), target) in submits.iter().zip(targets) {
+        let plan = (|| {
+            let target = target.ok_or(AppError::NotFound("assignment"))?;
+            let choice = target.choose(s.choice, s.elapsed_ms)?;
+            let key = (target.assignment.0, s.position);
+            let earlier = target
+                .question
+                .as_ref()
+                .and_then(|q| q.choice.as_deref())
+                .or_else(|| planned.get(&key).copied());
+            let plan = match earlier {
+                Some(p) if p == choice => Plan::Duplicate,
+                Some(_) => return Err(crate::flow::answered_differently()),
+                None => {
+                    planned.insert(key, choice);
+                    stores.push((key.0, key.1, choice, s.elapsed_ms));
+                    Plan::Store
+                }
+            };
+            Ok((target, plan))
+        })();
+        plans.push(plan);
+    }
+    let mut stored: std::collections::HashSet<(i64, i64)> = Default::default();
+    if !stores.is_empty() {
+        let json = serde_json::to_string(&stores).map_err(AppError::internal)?;
+        for r in sqlx::query(SUBMIT_UPDATE)
+            .bind(json)
+            .bind(now_ms())
+            .fetch_all(&mut *conn)
+            .await?
+        {
+            stored.insert((r.try_get("a")?, r.try_get("p")?));
+        }
+    }
+    let mut next: HashMap<i64, Option<i64>> = HashMap::new();
+    for (target, _) in plans.iter().flatten() {
+        next.insert(target.assignment.0, None);
+    }
+    if !next.is_empty() {
+        let ids: Vec<i64> = next.keys().copied().collect();
+        let json = serde_json::to_string(&ids).map_err(AppError::internal)?;
+        for r in sqlx::query(SUBMIT_NEXT)
+            .bind(json)
+            .fetch_all(&mut *conn)
+            .await?
+        {
+            next.insert(r.try_get("a")?, r.try_get("p")?);
+        }
+    }
+    Ok(submits
+        .iter()
+        .zip(plans)
+        .map(|((s, _), plan)| {
+            let (target, plan) = plan?;
+            let duplicate = match plan {
+                Plan::Duplicate => true,
+                Plan::Store if stored.contains(&(target.assignment.0, s.position)) => false,
+                // Read as open in this very transaction, so this cannot happen.
+                Plan::Store => {
+                    return Err(AppError::Internal(
+                        "an answer read as open was not stored".into(),
+                    ));
+                }
+            };
+            let ask = target.question.as_ref().is_some_and(|q| q.ask_reasons);
+            Ok(Submitted {
+                assignment: target.assignment,
+                study: target.study,
+                next: next.get(&target.assignment.0).copied().flatten(),
+                status: target.status,
+                duplicate,
+                ask_reasons: ask && !duplicate,
+            })
+        })
+        .collect())
 }
 
 /// Stores a question's answer if it has none. The SQLite form also returns the next open
@@ -130,18 +462,13 @@ const UPDATE_POSTGRES: &str = "UPDATE questions SET choice = $1, answered_at = $
      elapsed_ms = $3 WHERE assignment_id = $4 AND position = $5 AND choice IS NULL";
 
 async fn write_batch(
-    writer: &AnyPool,
+    conn: &mut AnyConnection,
     backend: Backend,
-    batch: &[Pending],
+    batch: &[(AnswerWrite, oneshot::Sender<Result<Written>>)],
 ) -> Result<Vec<Written>> {
-    let mut tx = match backend {
-        Backend::Sqlite => writer.begin_with("BEGIN IMMEDIATE").await?,
-        Backend::Postgres => writer.begin().await?,
-    };
     let at = now_ms();
     let mut outcomes = Vec::with_capacity(batch.len());
-    for p in batch {
-        let w = &p.write;
+    for (w, _) in batch {
         let sql = match backend {
             Backend::Sqlite => UPDATE_SQLITE,
             Backend::Postgres => UPDATE_POSTGRES,
@@ -153,17 +480,16 @@ async fn write_batch(
             .bind(w.assignment)
             .bind(w.position);
         let outcome = match backend {
-            Backend::Sqlite => match query.fetch_optional(&mut *tx).await? {
+            Backend::Sqlite => match query.fetch_optional(&mut *conn).await? {
                 Some(row) => Written::Stored(Next::Known(row.try_get("next")?)),
                 None => Written::AlreadyAnswered,
             },
-            Backend::Postgres => match query.execute(&mut *tx).await?.rows_affected() {
+            Backend::Postgres => match query.execute(&mut *conn).await?.rows_affected() {
                 0 => Written::AlreadyAnswered,
                 _ => Written::Stored(Next::ReadAfterCommit),
             },
         };
         outcomes.push(outcome);
     }
-    tx.commit().await?;
     Ok(outcomes)
 }
