@@ -121,6 +121,10 @@ impl Db {
                         conn.execute("PRAGMA synchronous=FULL").await?;
                         conn.execute("PRAGMA foreign_keys=ON").await?;
                         conn.execute("PRAGMA busy_timeout=10000").await?;
+                        // Statement and savepoint journals (the answer writer runs each job
+                        // in a savepoint) in memory instead of a temporary file: they only
+                        // serve rollbacks within a transaction, never durability.
+                        conn.execute("PRAGMA temp_store=MEMORY").await?;
                         Ok(())
                     })
                 })
