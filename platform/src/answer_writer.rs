@@ -493,3 +493,233 @@ async fn write_batch(
     }
     Ok(outcomes)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::db::Db;
+    use crate::flow::{self, AnswerRequest, Source, StartOutcome, StartRequest};
+    use crate::ids::ItemId;
+    use crate::study;
+
+    /// A fresh SQLite database with a study and `n` started HITs; returns the tokens and, per
+    /// token, its questions as (position, b, c, ask_reasons).
+    async fn hits(
+        n: usize,
+    ) -> (
+        tempfile::TempDir,
+        Db,
+        Vec<(String, Vec<(i64, i64, i64, bool)>)>,
+    ) {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let url = format!("sqlite://{}", dir.path().join("w.db").display());
+        let db = Db::connect(&url, 4).await.expect("connect");
+        let id = crate::bench::prepare(&db, 4, 1).await.expect("study");
+        let study = study::load(&db, id).await.expect("load");
+        let mut out = Vec::new();
+        for w in 0..n {
+            let req = StartRequest {
+                source: Some(Source::Direct),
+                worker_id: Some(format!("w{w}")),
+                ..StartRequest::default()
+            };
+            let StartOutcome::Started { token, .. } =
+                flow::start(&db, &study, req).await.expect("start")
+            else {
+                panic!("preview")
+            };
+            let rows = sqlx::query(
+                "SELECT q.position, t.b, t.c, q.ask_reasons FROM questions q \
+                 JOIN tuples t ON t.id = q.tuple_id JOIN assignments a ON a.id = q.assignment_id \
+                 WHERE a.token = $1 ORDER BY q.position",
+            )
+            .bind(&token)
+            .fetch_all(&db.pool)
+            .await
+            .expect("questions");
+            let qs = rows
+                .iter()
+                .map(|r| {
+                    (
+                        r.get::<i64, _>("position"),
+                        r.get::<i64, _>("b"),
+                        r.get::<i64, _>("c"),
+                        r.get::<i64, _>("ask_reasons") != 0,
+                    )
+                })
+                .collect();
+            out.push((token, qs));
+        }
+        (dir, db, out)
+    }
+
+    fn sub(token: &str, position: i64, choice: i64, elapsed_ms: Option<i64>) -> AnswerSubmit {
+        AnswerSubmit {
+            token: token.to_string(),
+            position,
+            choice,
+            elapsed_ms,
+        }
+    }
+
+    async fn stored(db: &Db, token: &str, position: i64) -> Option<String> {
+        sqlx::query(
+            "SELECT q.choice FROM questions q JOIN assignments a ON a.id = q.assignment_id \
+             WHERE a.token = $1 AND q.position = $2",
+        )
+        .bind(token)
+        .bind(position)
+        .fetch_one(&db.pool)
+        .await
+        .expect("question")
+        .get("choice")
+    }
+
+    /// One batch with answers of several assignments, an in-batch duplicate and conflict, and
+    /// every kind of refusal: each caller gets its own outcome, and only the valid first
+    /// answers are stored.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn one_batch_answers_each_caller() {
+        let (_dir, db, h) = hits(3).await;
+        let (t0, q0) = (&h[0].0, &h[0].1);
+        let (t1, q1) = (&h[1].0, &h[1].1);
+        let (t2, q2) = (&h[2].0, &h[2].1);
+        let batch: Vec<AnswerSubmit> = vec![
+            sub(t0, 0, q0[0].1, Some(1200)),         // stored (b)
+            sub(t1, 3, q1[3].2, None),               // stored (c); position 0 still open
+            sub(t0, 0, q0[0].1, None),               // same answer again: duplicate
+            sub(t0, 0, q0[0].2, None),               // other option: conflict
+            sub(&"ab".repeat(16), 0, q0[0].1, None), // no such assignment
+            sub(t2, 999, q2[0].1, None),             // no such question
+            sub(t2, 0, 12345, None),                 // not one of the two options
+            sub(t1, 1, q1[1].1, Some(-5)),           // implausible time
+            sub(t2, 1, q2[1].1, None),               // stored (b)
+        ];
+        let pending: Vec<_> = batch
+            .into_iter()
+            .map(|s| (s, oneshot::channel().0))
+            .collect();
+        let mut tx = db
+            .writer
+            .begin_with("BEGIN IMMEDIATE")
+            .await
+            .expect("begin");
+        let out = submit_batch(&mut tx, &pending).await.expect("batch");
+        tx.commit().await.expect("commit");
+        assert_eq!(out.len(), 9);
+        let ok = |i: usize| out[i].as_ref().expect("stored").clone();
+        assert!(!ok(0).duplicate && ok(0).next == Some(1) && ok(0).status == "active");
+        assert_eq!(ok(0).ask_reasons, q0[0].3);
+        assert!(!ok(1).duplicate && ok(1).next == Some(0));
+        assert!(ok(2).duplicate && !ok(2).ask_reasons && ok(2).next == Some(1));
+        assert_eq!(ok(2).assignment, ok(0).assignment);
+        assert!(matches!(out[3], Err(AppError::Conflict(_))), "{:?}", out[3]);
+        assert!(matches!(out[4], Err(AppError::NotFound("assignment"))));
+        assert!(matches!(out[5], Err(AppError::NotFound("question"))));
+        assert!(matches!(out[6], Err(AppError::BadRequest(_))));
+        assert!(matches!(out[7], Err(AppError::BadRequest(_))));
+        assert!(!ok(8).duplicate && ok(8).next == Some(0));
+        assert_ne!(ok(8).assignment, ok(0).assignment);
+        assert_eq!(stored(&db, t0, 0).await.as_deref(), Some("b"));
+        assert_eq!(stored(&db, t1, 3).await.as_deref(), Some("c"));
+        assert_eq!(stored(&db, t1, 1).await, None);
+        assert_eq!(stored(&db, t2, 0).await, None);
+        assert_eq!(stored(&db, t2, 1).await.as_deref(), Some("b"));
+
+        // A later batch sees the stored answers: a retry is a duplicate, a change a conflict.
+        let again = db
+            .answers
+            .submit(sub(t0, 0, q0[0].1, None))
+            .await
+            .expect("retry");
+        assert!(again.duplicate && again.next == Some(1));
+        let changed = db.answers.submit(sub(t0, 0, q0[0].2, None)).await;
+        assert!(matches!(changed, Err(AppError::Conflict(_))), "{changed:?}");
+    }
+
+    /// Every answer of a HIT sent at once (so they share batches), each twice: every caller
+    /// is acknowledged, exactly one of each pair stores it, and the last answer completes the
+    /// assignment (the completion job runs in the writer's transaction).
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn concurrent_answers_and_completion() {
+        let (_dir, db, h) = hits(1).await;
+        let (token, qs) = h[0].clone();
+        let mut set = tokio::task::JoinSet::new();
+        for &(position, b, _, _) in &qs {
+            for _ in 0..2 {
+                let (db, token) = (db.clone(), token.clone());
+                set.spawn(async move {
+                    let req = AnswerRequest {
+                        position,
+                        choice: ItemId(b),
+                        elapsed_ms: Some(10),
+                    };
+                    flow::answer(&db, &token, &req).await
+                });
+            }
+        }
+        let mut stored_count = 0;
+        let mut completed = 0;
+        while let Some(r) = set.join_next().await {
+            let ack = r.expect("task").expect("acknowledged");
+            stored_count += usize::from(!ack.duplicate);
+            completed += usize::from(ack.completed);
+            assert_eq!(ack.completed, ack.next_position.is_none());
+        }
+        assert_eq!(stored_count, qs.len());
+        assert!(completed >= 1);
+        let row = sqlx::query("SELECT status, decision FROM assignments WHERE token = $1")
+            .bind(&token)
+            .fetch_one(&db.pool)
+            .await
+            .expect("assignment");
+        assert_eq!(row.get::<String, _>("status"), "completed");
+        assert!(row.get::<Option<String>, _>("decision").is_some());
+        for &(position, ..) in &qs {
+            assert_eq!(stored(&db, &token, position).await.as_deref(), Some("b"));
+        }
+    }
+
+    async fn insert_worker(conn: &mut AnyConnection, name: &str) -> Result<()> {
+        sqlx::query(
+            "INSERT INTO workers (id, source, external_id, created_at) VALUES ($1, 'direct', $2, 0)",
+        )
+        .bind(crate::ids::WorkerId::generate().0)
+        .bind(name)
+        .execute(&mut *conn)
+        .await?;
+        Ok(())
+    }
+
+    /// A failing job is rolled back to its savepoint; the jobs and answers committed with it
+    /// are not affected.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn failing_job_rolls_back_alone() {
+        let (_dir, db, h) = hits(1).await;
+        let (token, qs) = h[0].clone();
+        let failing = db.answers.job(|conn| {
+            Box::pin(async move {
+                insert_worker(conn, "rolled-back").await?;
+                Err::<(), _>(AppError::Conflict("no".into()))
+            })
+        });
+        let kept = db
+            .answers
+            .job(|conn| Box::pin(async move { insert_worker(conn, "kept").await }));
+        let answer = db.answers.submit(sub(&token, 0, qs[0].1, None));
+        let (failing, kept, answer) = tokio::join!(failing, kept, answer);
+        assert!(matches!(failing, Err(AppError::Conflict(_))));
+        kept.expect("kept");
+        assert!(!answer.expect("answer").duplicate);
+        let names: Vec<String> =
+            sqlx::query("SELECT external_id FROM workers ORDER BY external_id")
+                .fetch_all(&db.pool)
+                .await
+                .expect("workers")
+                .iter()
+                .map(|r| r.get("external_id"))
+                .collect();
+        assert!(names.contains(&"kept".to_string()));
+        assert!(!names.contains(&"rolled-back".to_string()));
+    }
+}
