@@ -35,7 +35,7 @@ use crate::ids::{AssignmentId, StudyId};
 pub const MAX_BATCH: usize = 256;
 
 /// Most jobs ([`AnswerWriter::job`]) run in one transaction next to the answers.
-pub const MAX_JOBS: usize = 16;
+pub const MAX_JOBS: usize = 4;
 
 /// One answer to store.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -89,7 +89,8 @@ pub struct Submitted {
     pub assignment: AssignmentId,
     /// Its study.
     pub study: StudyId,
-    /// Its status when the answer was read (`active` or `completed`).
+    /// Its status when the answer was read (`active` or `completed`); an `active` one without
+    /// an open question left is completed in the answer's transaction.
     pub status: String,
     /// The same answer had been stored before (idempotent retry).
     pub duplicate: bool,
@@ -422,6 +423,31 @@ async fn submit_batch(
             .await?
         {
             next.insert(r.try_get("a")?, r.try_get("p")?);
+        }
+    }
+    // Completes, in this transaction, every active assignment this batch has left without an
+    // open question (also on a retry of its last answer, should an earlier completion have
+    // been lost): the acknowledgement of the last answer then implies the completion.
+    let mut thresholds: HashMap<StudyId, u32> = HashMap::new();
+    let mut completing: std::collections::HashSet<i64> = Default::default();
+    for (target, _) in plans.iter().flatten() {
+        let a = target.assignment;
+        if target.status == "active"
+            && next.get(&a.0).copied().flatten().is_none()
+            && completing.insert(a.0)
+        {
+            let threshold = match thresholds.get(&target.study) {
+                Some(&t) => t,
+                None => {
+                    let t = crate::study::load_on(&mut *conn, target.study)
+                        .await?
+                        .settings
+                        .reject_at_control_errors;
+                    thresholds.insert(target.study, t);
+                    t
+                }
+            };
+            crate::flow::complete_in(&mut *conn, a, threshold).await?;
         }
     }
     Ok(submits

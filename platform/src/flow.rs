@@ -1195,10 +1195,8 @@ async fn answer_in_batch(db: &Db, token: &str, req: &AnswerRequest) -> Result<An
             elapsed_ms: req.elapsed_ms,
         })
         .await?;
+    // An assignment whose last question this answered was completed in the same transaction.
     let completed = s.next.is_none();
-    if completed && s.status == "active" {
-        complete(db, s.study, s.assignment).await?;
-    }
     Ok(AnswerAck {
         duplicate: s.duplicate,
         ask_reasons: s.ask_reasons,
@@ -1282,7 +1280,11 @@ async fn complete(db: &Db, study: StudyId, a: AssignmentId) -> Result<()> {
 }
 
 /// The writes of [`complete`], inside the caller's transaction.
-async fn complete_in(tx: &mut AnyConnection, a: AssignmentId, threshold: u32) -> Result<()> {
+pub(crate) async fn complete_in(
+    tx: &mut AnyConnection,
+    a: AssignmentId,
+    threshold: u32,
+) -> Result<()> {
     let done = sqlx::query(
         "UPDATE assignments SET status = 'completed', completed_at = $1 WHERE id = $2 AND status = 'active'",
     )
