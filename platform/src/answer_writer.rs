@@ -1,23 +1,32 @@
-//! Group commit of answers. Every answer is one conditional `UPDATE questions … WHERE choice IS
+//! Group commit of answers. Every answer is a conditional `UPDATE questions … WHERE choice IS
 //! NULL`; committed one by one, SQLite's single writer (one WAL fsync per commit) caps the answer
 //! path near 1,500/s on these machines whatever the concurrency. Here the answers that arrive
 //! while a commit is in flight are written together in the next transaction, and each caller is
 //! answered only after that transaction has committed — so an acknowledged answer is as durable
 //! as before, nothing is acknowledged from memory, and a crash loses only unacknowledged
-//! answers (the client retries; answers are idempotent).
-//!
-//! Each statement's outcome is returned to its own caller, so the conditional "first answer
-//! wins" logic of [`crate::flow::answer`] is unchanged. A database error aborts the whole batch
+//! answers (the client retries; answers are idempotent). A database error aborts the whole batch
 //! and every caller in it gets the error (none was acknowledged).
 //!
-//! On SQLite the same statement also returns the assignment's next unanswered position
-//! (`RETURNING` with a subquery), so the answer path needs no read after the commit. That value
-//! is exact there: every writer of the file is serialised (`BEGIN IMMEDIATE`), so no other
-//! answer of the assignment can commit between this statement and the commit. On PostgreSQL,
-//! where several servers write concurrently under READ COMMITTED, a statement's snapshot may
-//! miss another server's concurrent answer of the same assignment (both would then see the
-//! other's question as open and neither would complete the HIT), so the caller reads it after
-//! the commit instead ([`Next::ReadAfterCommit`]).
+//! On SQLite an answer is handed over as the worker sent it ([`AnswerWriter::submit`]) and
+//! everything happens inside the writer's `BEGIN IMMEDIATE` transaction, for the whole batch at
+//! once: one read of every answer's assignment and question (`json_each` over a JSON array
+//! bound as one parameter), the checks of [`crate::flow::answer`] in Rust, one `UPDATE … FROM
+//! json_each(…)` of the answers to store, one read of each assignment's next open position,
+//! and the completion of every assignment left without one. What is read is exact: every
+//! writer of the file is serialised, so nothing can change between the read and the write, and
+//! two answers of one question in the same batch are decided in arrival order (the first is
+//! stored, the second is a duplicate or a conflict). The answer path thus needs no read of its
+//! own before or after the write, and a batch costs five statements, not two per answer.
+//!
+//! Other SQLite writes that must not wait for their own fsync — HIT allocations — run as jobs
+//! ([`AnswerWriter::job`]) in the same transaction, each in a savepoint so that its failure
+//! rolls back only its own statements; their callers too are answered after the commit.
+//!
+//! On PostgreSQL, where several servers write concurrently under READ COMMITTED, a statement's
+//! snapshot may miss another server's concurrent answer of the same assignment (both would then
+//! see the other's question as open and neither would complete the HIT), so there the caller
+//! reads its target before and the next position after the commit, and hands over only the
+//! conditional `UPDATE` ([`AnswerWriter::write`], [`Next::ReadAfterCommit`]).
 
 use std::collections::HashMap;
 use std::future::Future;

@@ -151,9 +151,10 @@ impl Db {
 
     /// Begins a write transaction (`BEGIN IMMEDIATE` on SQLite).
     ///
-    /// On SQLite these transactions (HIT allocations, completions, admin writes) first take
-    /// one shared turn, so at most one of them waits at the single-connection `writer` pool
-    /// next to the answer writer. The pool serves waiters in order, so the answer writer's
+    /// On SQLite these transactions (training submissions, admin writes; HIT allocations and
+    /// completions are jobs of the answer writer instead, see [`crate::answer_writer`]) first
+    /// take one shared turn, so at most one of them waits at the single-connection `writer`
+    /// pool next to the answer writer. The pool serves waiters in order, so the answer writer's
     /// batches alternate with them one by one: an answer waits for at most one allocation,
     /// not for a whole wave of HITs started together. A latency measure only: SQLite's own
     /// lock still serialises every writer, across processes too.

@@ -1149,8 +1149,10 @@ async fn answer_target(db: &Db, token: &str, position: i64) -> Result<AnswerTarg
 /// Stores an answer (idempotent: the same answer again is acknowledged as a duplicate; a
 /// different one is a conflict). Completes the assignment after its last answer.
 ///
-/// The common path is one read ([`answer_target`]) and one group-committed write, which on
-/// SQLite also returns the next open position; the study is loaded only to complete a HIT.
+/// On SQLite the whole answer — read, checks, write, next position, completion — happens in
+/// the answer writer's batch transaction ([`answer_in_batch`]). On PostgreSQL it is one read
+/// ([`answer_target`]), one group-committed write and a read of the next open position; the
+/// study is loaded only to complete a HIT.
 pub async fn answer(db: &Db, token: &str, req: &AnswerRequest) -> Result<AnswerAck> {
     if db.backend == Backend::Sqlite {
         return answer_in_batch(db, token, req).await;
