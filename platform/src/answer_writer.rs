@@ -28,7 +28,7 @@
 //! reads its target before and the next position after the commit, and hands over only the
 //! conditional `UPDATE` ([`AnswerWriter::write`], [`Next::ReadAfterCommit`]).
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::future::Future;
 use std::pin::Pin;
 
@@ -43,7 +43,8 @@ use crate::ids::{AssignmentId, StudyId};
 /// Most answers written in one transaction (bounds the time the writer is held).
 pub const MAX_BATCH: usize = 256;
 
-/// Most jobs ([`AnswerWriter::job`]) run in one transaction next to the answers.
+/// Most jobs ([`AnswerWriter::job`]) run in one transaction next to the answers (more wait for
+/// the next one, without holding up the answers that arrive after them).
 pub const MAX_JOBS: usize = 4;
 
 /// One answer to store.
@@ -220,26 +221,42 @@ impl Batch {
         self.writes.len() + self.submits.len()
     }
 
-    fn push(&mut self, p: Pending) {
+    /// Adds `p`; a job beyond [`MAX_JOBS`] waits in `deferred` for a later batch, so answers
+    /// never queue behind a backlog of jobs (HIT starts arriving together).
+    fn push(&mut self, p: Pending, deferred: &mut VecDeque<Job>) {
         match p {
             Pending::Write(w, r) => self.writes.push((w, r)),
             Pending::Submit(s, r) => self.submits.push((s, r)),
-            Pending::Job(j) => self.jobs.push(j),
+            Pending::Job(j) if self.jobs.len() < MAX_JOBS => self.jobs.push(j),
+            Pending::Job(j) => deferred.push_back(j),
         }
     }
 
-    fn full(&self) -> bool {
-        self.len() >= MAX_BATCH || self.jobs.len() >= MAX_JOBS
+    fn is_empty(&self) -> bool {
+        self.len() == 0 && self.jobs.is_empty()
     }
 }
 
 async fn run(writer: AnyPool, backend: Backend, mut rx: mpsc::UnboundedReceiver<Pending>) {
-    while let Some(first) = rx.recv().await {
+    let mut deferred: VecDeque<Job> = VecDeque::new();
+    loop {
         let mut batch = Batch::default();
-        batch.push(first);
-        while !batch.full() {
+        // Jobs deferred from earlier batches first, in arrival order.
+        while batch.jobs.len() < MAX_JOBS {
+            match deferred.pop_front() {
+                Some(j) => batch.jobs.push(j),
+                None => break,
+            }
+        }
+        if batch.is_empty() {
+            match rx.recv().await {
+                Some(p) => batch.push(p, &mut deferred),
+                None => break,
+            }
+        }
+        while batch.len() < MAX_BATCH {
             match rx.try_recv() {
-                Ok(p) => batch.push(p),
+                Ok(p) => batch.push(p, &mut deferred),
                 Err(_) => break,
             }
         }
