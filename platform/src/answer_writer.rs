@@ -45,7 +45,7 @@ pub const MAX_BATCH: usize = 256;
 
 /// Most jobs ([`AnswerWriter::job`]) run in one transaction next to the answers (more wait for
 /// the next one, without holding up the answers that arrive after them).
-pub const MAX_JOBS: usize = 4;
+pub const MAX_JOBS: usize = 8;
 
 /// One answer to store.
 #[derive(Debug, Clone, PartialEq, Eq)]
