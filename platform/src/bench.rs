@@ -102,7 +102,7 @@ fn swatch(i: usize) -> NewItem {
     }
 }
 
-async fn prepare(db: &Db, workers: usize, seconds: u64) -> Result<StudyId> {
+pub(crate) async fn prepare(db: &Db, workers: usize, seconds: u64) -> Result<StudyId> {
     let lib = library::ensure_library(db, "bench").await?;
     // 64 items: ~120,000 distinct triplets, enough slots for 1000 concurrent HITs.
     if library::list_items(db, lib).await?.len() < 64 {

@@ -121,6 +121,10 @@ impl Db {
                         conn.execute("PRAGMA synchronous=FULL").await?;
                         conn.execute("PRAGMA foreign_keys=ON").await?;
                         conn.execute("PRAGMA busy_timeout=10000").await?;
+                        // Statement and savepoint journals (the answer writer runs each job
+                        // in a savepoint) in memory instead of a temporary file: they only
+                        // serve rollbacks within a transaction, never durability.
+                        conn.execute("PRAGMA temp_store=MEMORY").await?;
                         Ok(())
                     })
                 })
@@ -147,9 +151,10 @@ impl Db {
 
     /// Begins a write transaction (`BEGIN IMMEDIATE` on SQLite).
     ///
-    /// On SQLite these transactions (HIT allocations, completions, admin writes) first take
-    /// one shared turn, so at most one of them waits at the single-connection `writer` pool
-    /// next to the answer writer. The pool serves waiters in order, so the answer writer's
+    /// On SQLite these transactions (training submissions, admin writes; HIT allocations and
+    /// completions are jobs of the answer writer instead, see [`crate::answer_writer`]) first
+    /// take one shared turn, so at most one of them waits at the single-connection `writer`
+    /// pool next to the answer writer. The pool serves waiters in order, so the answer writer's
     /// batches alternate with them one by one: an answer waits for at most one allocation,
     /// not for a whole wave of HITs started together. A latency measure only: SQLite's own
     /// lock still serialises every writer, across processes too.

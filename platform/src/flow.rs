@@ -11,11 +11,11 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 use sha2::Sha256;
-use sqlx::{Any, Row};
+use sqlx::{Any, AnyConnection, Row};
 use utoipa::ToSchema;
 
-use crate::answer_writer::{AnswerWrite, Next, Written};
-use crate::db::{Backend, Db, WriteTx, now_ms};
+use crate::answer_writer::{AnswerSubmit, AnswerWrite, Next, Written};
+use crate::db::{Backend, Db, now_ms};
 use crate::error::{AppError, Result};
 use crate::ids::{AssignmentId, ItemId, StudyId, TupleId, WorkerId, random_token};
 use crate::qc;
@@ -236,6 +236,7 @@ pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOut
     } else {
         hit_controls(db, study, &mut rng).await?
     };
+    let external = external.to_string();
     let new = NewAssignment {
         id: AssignmentId::generate(),
         token: random_token(),
@@ -244,39 +245,102 @@ pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOut
         sandbox,
         status: if training { "training" } else { "active" },
         demographics: serde_json::to_string(&demographics).map_err(AppError::internal)?,
-        req: &req,
+        req,
+    };
+    let allocation = Allocation {
+        new,
+        known,
+        external,
+        training,
+        study: study.clone(),
+        backend: db.backend,
+        controls,
+        rng,
     };
     // One write transaction for the worker, the assignment and (without training) the whole
-    // HIT: one commit (one fsync on SQLite) instead of three, and a HIT is never visible
-    // half-allocated.
-    let mut tx = db.begin_write().await?;
-    let worker = match known {
-        Some(w) => w,
-        None => ensure_worker(&mut tx, source, external).await?,
+    // HIT: a HIT is never visible half-allocated. On SQLite it is a job of the answer writer,
+    // committed together with the answers (one fsync for both) instead of waiting for its
+    // turn between their batches.
+    let outcome = match db.backend {
+        Backend::Sqlite => {
+            db.answers
+                .job(move |conn| Box::pin(async move { allocation.run(conn).await }))
+                .await?
+        }
+        Backend::Postgres => {
+            let mut tx = db.begin_write().await?;
+            let outcome = allocation.run(&mut tx).await?;
+            match outcome {
+                Allocated::New(_) => tx.commit().await?,
+                Allocated::Raced(_) => tx.rollback().await?,
+            }
+            outcome
+        }
     };
-    if !new.insert(&mut tx, worker).await? {
-        // A concurrent start of the same worker won the race: resume theirs.
-        tx.rollback().await?;
-        let token = existing_token(db, study.id, worker)
-            .await?
-            .ok_or(AppError::Internal("assignment vanished".into()))?;
-        return Ok(StartOutcome::Started {
+    match outcome {
+        Allocated::New(token) => Ok(StartOutcome::Started {
             token,
-            resumed: true,
-        });
+            resumed: false,
+        }),
+        Allocated::Raced(worker) => {
+            // A concurrent start of the same worker won the race: resume theirs.
+            let token = existing_token(db, study.id, worker)
+                .await?
+                .ok_or(AppError::Internal("assignment vanished".into()))?;
+            Ok(StartOutcome::Started {
+                token,
+                resumed: true,
+            })
+        }
     }
-    if !training {
-        // No free slot left: `?` drops `tx`, which rolls the assignment back as well.
-        fill_hit(
-            &mut tx, db.backend, study, new.id, worker, controls, &mut rng,
-        )
-        .await?;
+}
+
+/// The writes of a [`start`]: worker, assignment and, without training, the HIT.
+struct Allocation {
+    new: NewAssignment,
+    known: Option<WorkerId>,
+    external: String,
+    training: bool,
+    study: Study,
+    backend: Backend,
+    controls: Vec<i64>,
+    rng: rand_chacha::ChaCha8Rng,
+}
+
+/// What an [`Allocation`] did.
+enum Allocated {
+    /// The new assignment's token.
+    New(String),
+    /// The worker (with this id) already has an assignment in the study: nothing was written
+    /// but possibly the worker row, which the caller rolls back or keeps (harmless).
+    Raced(WorkerId),
+}
+
+impl Allocation {
+    /// Runs inside one transaction (or savepoint); an error leaves it to be rolled back.
+    async fn run(mut self, tx: &mut AnyConnection) -> Result<Allocated> {
+        let worker = match self.known {
+            Some(w) => w,
+            None => ensure_worker(tx, self.new.source, &self.external).await?,
+        };
+        if !self.new.insert(tx, worker).await? {
+            return Ok(Allocated::Raced(worker));
+        }
+        if !self.training {
+            // No free slot left: the error rolls the assignment back as well.
+            fill_hit(
+                tx,
+                self.backend,
+                &self.study,
+                self.new.id,
+                worker,
+                self.controls,
+                &mut self.rng,
+            )
+            .await?;
+        }
+        Ok(Allocated::New(self.new.token))
     }
-    tx.commit().await?;
-    Ok(StartOutcome::Started {
-        token: new.token,
-        resumed: false,
-    })
 }
 
 /// Refuses workers who took part in one of the studies this one excludes.
@@ -297,7 +361,7 @@ async fn check_exclusions(db: &Db, study: &Study, worker: WorkerId) -> Result<()
 }
 
 /// A new assignment, inserted by [`start`].
-struct NewAssignment<'r> {
+struct NewAssignment {
     id: AssignmentId,
     token: String,
     study: StudyId,
@@ -306,13 +370,13 @@ struct NewAssignment<'r> {
     /// `training`, or `active` when the study has no training (the HIT is allocated with it).
     status: &'static str,
     demographics: String,
-    req: &'r StartRequest,
+    req: StartRequest,
 }
 
-impl NewAssignment<'_> {
+impl NewAssignment {
     /// Inserts it; `false` when the worker already has an assignment in this study.
-    async fn insert(&self, tx: &mut WriteTx, worker: WorkerId) -> Result<bool> {
-        let req = self.req;
+    async fn insert(&self, tx: &mut AnyConnection, worker: WorkerId) -> Result<bool> {
+        let req = &self.req;
         let inserted = sqlx::query(
             "INSERT INTO assignments (id, token, study_id, worker_id, source, sandbox, \
              external_assignment, hit_id, submit_to, prolific_study, prolific_session, \
@@ -338,7 +402,7 @@ impl NewAssignment<'_> {
         .bind(&self.demographics)
         .bind(self.status)
         .bind(now_ms())
-        .execute(&mut **tx)
+        .execute(&mut *tx)
         .await?;
         Ok(inserted.rows_affected() == 1)
     }
@@ -357,7 +421,7 @@ async fn find_worker(db: &Db, source: Source, external: &str) -> Result<Option<W
 }
 
 /// Creates the worker unless a concurrent request just did; returns its id.
-async fn ensure_worker(tx: &mut WriteTx, source: Source, external: &str) -> Result<WorkerId> {
+async fn ensure_worker(tx: &mut AnyConnection, source: Source, external: &str) -> Result<WorkerId> {
     sqlx::query(
         "INSERT INTO workers (id, source, external_id, created_at) VALUES ($1, $2, $3, $4) \
          ON CONFLICT DO NOTHING",
@@ -366,12 +430,12 @@ async fn ensure_worker(tx: &mut WriteTx, source: Source, external: &str) -> Resu
     .bind(source.as_str())
     .bind(external)
     .bind(now_ms())
-    .execute(&mut **tx)
+    .execute(&mut *tx)
     .await?;
     let row = sqlx::query("SELECT id FROM workers WHERE source = $1 AND external_id = $2")
         .bind(source.as_str())
         .bind(external)
-        .fetch_one(&mut **tx)
+        .fetch_one(&mut *tx)
         .await?;
     Ok(WorkerId(row.try_get("id")?))
 }
@@ -779,7 +843,7 @@ async fn hit_controls(db: &Db, study: &Study, rng: &mut impl Rng) -> Result<Vec<
 /// on both databases), adds the hidden controls, shuffles positions. A study without a free
 /// slot is a conflict (the caller's transaction is then rolled back).
 async fn fill_hit(
-    tx: &mut WriteTx,
+    tx: &mut AnyConnection,
     backend: Backend,
     study: &Study,
     assignment: AssignmentId,
@@ -827,7 +891,7 @@ async fn fill_hit(
             .bind(i64::from(rng.random_bool(0.5)))
             .bind(i64::from(ask));
     }
-    insert.execute(&mut **tx).await?;
+    insert.execute(&mut *tx).await?;
     Ok(questions.len())
 }
 
@@ -849,7 +913,7 @@ impl SlotClaim {
     /// SQLite (`BEGIN IMMEDIATE` already serialises writers): one free slot of each of the
     /// next tuples per statement — two statements per HIT instead of one per question, so the
     /// single writer, and the answers queued behind it, are free sooner. Returns (slot, tuple).
-    async fn many_per_statement(&self, tx: &mut WriteTx) -> Result<Vec<(i64, i64)>> {
+    async fn many_per_statement(&self, tx: &mut AnyConnection) -> Result<Vec<(i64, i64)>> {
         let mut claimed = self
             .claim_range(tx, self.start, i64::MAX, self.wanted)
             .await?;
@@ -873,7 +937,7 @@ impl SlotClaim {
     /// Returns (slot, tuple, seq).
     async fn claim_range(
         &self,
-        tx: &mut WriteTx,
+        tx: &mut AnyConnection,
         lower: i64,
         upper: i64,
         limit: usize,
@@ -888,7 +952,7 @@ impl SlotClaim {
         let rows = self
             .bind_claim(query, lower, upper)
             .bind(limit as i64)
-            .fetch_all(&mut **tx)
+            .fetch_all(&mut *tx)
             .await?;
         rows.iter()
             .map(|r| Ok((r.try_get("id")?, r.try_get("tuple_id")?, r.try_get("seq")?)))
@@ -915,7 +979,7 @@ impl SlotClaim {
     /// PostgreSQL: one claim per statement, the first free slot after the previously claimed
     /// tuple; the row lock is taken on that slot only and rows other allocators are claiming
     /// are skipped, so concurrent allocations neither wait on nor deadlock with each other.
-    async fn one_per_statement(&self, tx: &mut WriteTx) -> Result<Vec<(i64, i64)>> {
+    async fn one_per_statement(&self, tx: &mut AnyConnection) -> Result<Vec<(i64, i64)>> {
         let mut claimed = Vec::with_capacity(self.wanted);
         let (mut lower, mut upper) = (self.start, i64::MAX);
         let (mut first_seq, mut wrapped) = (None, false);
@@ -929,7 +993,7 @@ impl SlotClaim {
             );
             let row = self
                 .bind_claim(query, lower, upper)
-                .fetch_optional(&mut **tx)
+                .fetch_optional(&mut *tx)
                 .await?;
             match row {
                 Some(r) => {
@@ -1000,19 +1064,51 @@ pub struct AnswerAck {
 }
 
 /// What the answer path needs to know before writing, read in one query.
-struct AnswerTarget {
-    assignment: AssignmentId,
-    study: StudyId,
-    status: String,
+pub(crate) struct AnswerTarget {
+    pub(crate) assignment: AssignmentId,
+    pub(crate) study: StudyId,
+    pub(crate) status: String,
     /// `None`: the assignment has no question at that position.
-    question: Option<TargetQuestion>,
+    pub(crate) question: Option<TargetQuestion>,
 }
 
-struct TargetQuestion {
-    b: i64,
-    c: i64,
-    ask_reasons: bool,
-    choice: Option<String>,
+impl AnswerTarget {
+    /// Checks an answer against what was read (the assignment is answering, `elapsed_ms` is
+    /// plausible, the question exists, the choice is one of its two options) and returns the
+    /// choice as stored: `b` or `c`.
+    pub(crate) fn choose(&self, choice: i64, elapsed_ms: Option<i64>) -> Result<&'static str> {
+        if self.status != "active" && self.status != "completed" {
+            return Err(AppError::Conflict(format!(
+                "the assignment is {}, not answering questions",
+                self.status
+            )));
+        }
+        if let Some(ms) = elapsed_ms
+            && !(0..=86_400_000).contains(&ms)
+        {
+            return Err(AppError::BadRequest("elapsed_ms: 0..=86400000".into()));
+        }
+        let q = self
+            .question
+            .as_ref()
+            .ok_or(AppError::NotFound("question"))?;
+        if choice == q.b {
+            Ok("b")
+        } else if choice == q.c {
+            Ok("c")
+        } else {
+            Err(AppError::BadRequest(
+                "choice: not one of the question's two options".into(),
+            ))
+        }
+    }
+}
+
+pub(crate) struct TargetQuestion {
+    pub(crate) b: i64,
+    pub(crate) c: i64,
+    pub(crate) ask_reasons: bool,
+    pub(crate) choice: Option<String>,
 }
 
 /// The assignment behind `token` and its question at `position`, with the question's two
@@ -1053,34 +1149,20 @@ async fn answer_target(db: &Db, token: &str, position: i64) -> Result<AnswerTarg
 /// Stores an answer (idempotent: the same answer again is acknowledged as a duplicate; a
 /// different one is a conflict). Completes the assignment after its last answer.
 ///
-/// The common path is one read ([`answer_target`]) and one group-committed write, which on
-/// SQLite also returns the next open position; the study is loaded only to complete a HIT.
+/// On SQLite the whole answer — read, checks, write, next position, completion — happens in
+/// the answer writer's batch transaction ([`answer_in_batch`]). On PostgreSQL it is one read
+/// ([`answer_target`]), one group-committed write and a read of the next open position; the
+/// study is loaded only to complete a HIT.
 pub async fn answer(db: &Db, token: &str, req: &AnswerRequest) -> Result<AnswerAck> {
+    if db.backend == Backend::Sqlite {
+        return answer_in_batch(db, token, req).await;
+    }
     let target = answer_target(db, token, req.position).await?;
-    if target.status != "active" && target.status != "completed" {
-        return Err(AppError::Conflict(format!(
-            "the assignment is {}, not answering questions",
-            target.status
-        )));
-    }
-    if let Some(ms) = req.elapsed_ms
-        && !(0..=86_400_000).contains(&ms)
-    {
-        return Err(AppError::BadRequest("elapsed_ms: 0..=86400000".into()));
-    }
+    let choice = target.choose(req.choice.0, req.elapsed_ms)?;
     let q = target
         .question
         .as_ref()
         .ok_or(AppError::NotFound("question"))?;
-    let choice = if req.choice.0 == q.b {
-        "b"
-    } else if req.choice.0 == q.c {
-        "c"
-    } else {
-        return Err(AppError::BadRequest(
-            "choice: not one of the question's two options".into(),
-        ));
-    };
     let id = target.assignment;
     let (duplicate, next) = match q.choice.as_deref() {
         Some(p) if p == choice => (true, next_unanswered(db, id).await?),
@@ -1099,7 +1181,33 @@ pub async fn answer(db: &Db, token: &str, req: &AnswerRequest) -> Result<AnswerA
     })
 }
 
-fn answered_differently() -> AppError {
+/// SQLite: the read, the checks and the write of [`answer`] all happen in the answer writer's
+/// transaction ([`crate::answer_writer::AnswerWriter::submit`]), batched with the other
+/// answers of that transaction; nothing is read before or after.
+async fn answer_in_batch(db: &Db, token: &str, req: &AnswerRequest) -> Result<AnswerAck> {
+    if !valid_token(token) {
+        return Err(AppError::NotFound("assignment"));
+    }
+    let s = db
+        .answers
+        .submit(AnswerSubmit {
+            token: token.to_string(),
+            position: req.position,
+            choice: req.choice.0,
+            elapsed_ms: req.elapsed_ms,
+        })
+        .await?;
+    // An assignment whose last question this answered was completed in the same transaction.
+    let completed = s.next.is_none();
+    Ok(AnswerAck {
+        duplicate: s.duplicate,
+        ask_reasons: s.ask_reasons,
+        completed,
+        next_position: s.next,
+    })
+}
+
+pub(crate) fn answered_differently() -> AppError {
     AppError::Conflict("this question was already answered differently".into())
 }
 
@@ -1158,7 +1266,27 @@ async fn complete(db: &Db, study: StudyId, a: AssignmentId) -> Result<()> {
         .await?
         .settings
         .reject_at_control_errors;
-    let mut tx = db.begin_write_unqueued().await?;
+    match db.backend {
+        // With the answers' group commit: no fsync of its own, no wait for a turn.
+        Backend::Sqlite => {
+            db.answers
+                .job(move |conn| Box::pin(async move { complete_in(conn, a, threshold).await }))
+                .await
+        }
+        Backend::Postgres => {
+            let mut tx = db.begin_write_unqueued().await?;
+            complete_in(&mut tx, a, threshold).await?;
+            tx.commit().await
+        }
+    }
+}
+
+/// The writes of [`complete`], inside the caller's transaction.
+pub(crate) async fn complete_in(
+    tx: &mut AnyConnection,
+    a: AssignmentId,
+    threshold: u32,
+) -> Result<()> {
     let done = sqlx::query(
         "UPDATE assignments SET status = 'completed', completed_at = $1 WHERE id = $2 AND status = 'active'",
     )
@@ -1167,9 +1295,9 @@ async fn complete(db: &Db, study: StudyId, a: AssignmentId) -> Result<()> {
     .execute(&mut *tx)
     .await?;
     if done.rows_affected() == 1 {
-        let errors = qc::control_errors(&mut tx, a).await?;
+        let errors = qc::control_errors(tx, a).await?;
         qc::record(
-            &mut tx,
+            tx,
             a,
             qc::verdict(errors, threshold),
             &qc::rule_name(threshold),
@@ -1178,7 +1306,6 @@ async fn complete(db: &Db, study: StudyId, a: AssignmentId) -> Result<()> {
         )
         .await?;
     }
-    tx.commit().await?;
     Ok(())
 }
 

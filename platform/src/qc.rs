@@ -6,7 +6,7 @@
 use serde::Serialize;
 use sqlx::Row;
 
-use crate::db::{Db, WriteTx, now_ms};
+use crate::db::{Db, now_ms};
 use crate::error::{AppError, Result};
 use crate::ids::{AssignmentId, DecisionId, StudyId};
 
@@ -42,7 +42,7 @@ pub fn verdict(errors: i64, threshold: u32) -> &'static str {
 
 /// Records a decision inside `tx` and makes it the assignment's current one.
 pub async fn record(
-    tx: &mut WriteTx,
+    tx: &mut sqlx::AnyConnection,
     assignment: AssignmentId,
     decision: &str,
     rule: &str,
@@ -60,12 +60,12 @@ pub async fn record(
     .bind(actor)
     .bind(errors)
     .bind(now_ms())
-    .execute(&mut **tx)
+    .execute(&mut *tx)
     .await?;
     sqlx::query("UPDATE assignments SET decision = $1 WHERE id = $2")
         .bind(decision)
         .bind(assignment.0)
-        .execute(&mut **tx)
+        .execute(&mut *tx)
         .await?;
     Ok(())
 }

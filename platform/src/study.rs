@@ -179,11 +179,16 @@ pub struct Study {
 
 /// Loads a study.
 pub async fn load(db: &Db, id: StudyId) -> Result<Study> {
+    load_on(&mut *db.pool.acquire().await?, id).await
+}
+
+/// Loads a study through `conn` (e.g. inside a write transaction).
+pub async fn load_on(conn: &mut sqlx::AnyConnection, id: StudyId) -> Result<Study> {
     let row = sqlx::query(
         "SELECT id, name, library_id, settings, secret, created_at FROM studies WHERE id = $1",
     )
     .bind(id.0)
-    .fetch_optional(&db.pool)
+    .fetch_optional(&mut *conn)
     .await?
     .ok_or(AppError::NotFound("study"))?;
     let settings: String = row.try_get("settings")?;
