@@ -125,17 +125,19 @@ crate::simd::vectorised_fn! {
 /// convention of MATLAB's `rgb2gray` and scikit-image's `rgb2gray` predecessor used by the paper's
 /// era of tools.
 pub fn luma<'a>(image: &'a RgbImage) -> Plane {
-    let data = image
-        .as_raw()
-        .chunks_exact(3)
-        .map(|p| (0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32) / 255.0)
-        .collect();
+    let data = image.as_raw().chunks_exact(3).map(luma_of).collect();
     Plane {
         width: image.width() as usize,
         height: image.height() as usize,
         data,
     }
 }
+}
+
+/// The [`luma`] of one RGB pixel (`rgb` holds at least 3 channels).
+#[inline(always)]
+pub fn luma_of(rgb: &[u8]) -> f32 {
+    (0.299 * rgb[0] as f32 + 0.587 * rgb[1] as f32 + 0.114 * rgb[2] as f32) / 255.0
 }
 
 /// Halves an RGB image by averaging 2x2 blocks (rounding to nearest).
