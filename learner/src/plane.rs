@@ -140,23 +140,28 @@ pub fn luma_of(rgb: &[u8]) -> f32 {
     (0.299 * rgb[0] as f32 + 0.587 * rgb[1] as f32 + 0.114 * rgb[2] as f32) / 255.0
 }
 
+crate::simd::vectorised_fn! {
 /// Halves an RGB image by averaging 2x2 blocks (rounding to nearest).
-pub fn half_rgb(image: &RgbImage) -> RgbImage {
+pub fn half_rgb<'a>(image: &'a RgbImage) -> RgbImage {
     let (w, h) = (image.width() as usize / 2, image.height() as usize / 2);
     let stride = 3 * image.width() as usize;
     let raw = image.as_raw();
-    let mut data = Vec::with_capacity(3 * w * h);
-    for y in 0..h {
-        let top = &raw[2 * y * stride..][..6 * w];
-        let bottom = &raw[(2 * y + 1) * stride..][..6 * w];
-        for (t, b) in top.chunks_exact(6).zip(bottom.chunks_exact(6)) {
-            for c in 0..3 {
-                let sum = t[c] as u32 + t[c + 3] as u32 + b[c] as u32 + b[c + 3] as u32;
-                data.push(((sum + 2) / 4) as u8);
+    let mut data = vec![0u8; 3 * w * h];
+    if w > 0 {
+        for (y, out) in data.chunks_exact_mut(3 * w).enumerate() {
+            let top = &raw[2 * y * stride..][..6 * w];
+            let bottom = &raw[(2 * y + 1) * stride..][..6 * w];
+            let blocks = top.chunks_exact(6).zip(bottom.chunks_exact(6));
+            for (o, (t, b)) in out.chunks_exact_mut(3).zip(blocks) {
+                for c in 0..3 {
+                    let sum = t[c] as u32 + t[c + 3] as u32 + b[c] as u32 + b[c + 3] as u32;
+                    o[c] = ((sum + 2) / 4) as u8;
+                }
             }
         }
     }
     RgbImage::from_raw(w as u32, h as u32, data).expect("3 bytes per pixel of a w x h image")
+}
 }
 
 #[cfg(test)]

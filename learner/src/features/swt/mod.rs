@@ -184,6 +184,7 @@ impl ScaleInput<'_> {
     }
 
     /// The gradient magnitude bilinearly interpolated at `(x, y)`, coordinates clamped.
+    #[inline(always)]
     fn magnitude_at(&self, x: f32, y: f32) -> f32 {
         let x = x.clamp(0.0, (self.width - 1) as f32);
         let y = y.clamp(0.0, (self.height - 1) as f32);
