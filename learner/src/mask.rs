@@ -355,6 +355,16 @@ const UNPACKED_BYTES: [[bool; 8]; 256] = {
 fn or_shifted(row: &mut [u64], bits: &[u64], step: usize, padded: &mut Vec<u64>) {
     let n = bits.len();
     let (whole, part) = (step / 64, step % 64);
+    if whole == 0 && part > 0 {
+        // Steps under 64 px (every step for radii under 127): each word takes bits from itself
+        // and its two neighbours, without the padded copy.
+        for (i, out) in row.iter_mut().enumerate() {
+            let below = if i > 0 { bits[i - 1] >> (64 - part) } else { 0 };
+            let above = if i + 1 < n { bits[i + 1] << (64 - part) } else { 0 };
+            *out |= (bits[i] << part) | below | (bits[i] >> part) | above;
+        }
+        return;
+    }
     // `bits` with `whole + 1` zero words on each side, so every read below is in bounds.
     let margin = whole + 1;
     padded.clear();

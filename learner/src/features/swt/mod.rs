@@ -201,6 +201,7 @@ impl ScaleInput<'_> {
 
     /// The sub-pixel edge position of pixel `i`: its centre moved along its gradient to the
     /// vertex of the parabola through the magnitude at −1, 0, +1 px (offset clamped to ±½).
+    #[inline(always)]
     fn refined(&self, i: usize) -> (f32, f32) {
         let (x, y) = ((i % self.width) as f32, (i / self.width) as f32);
         let m0 = self.magnitude(i);
