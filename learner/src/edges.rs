@@ -42,11 +42,14 @@ crate::simd::vectorised_fn! {
 /// [`sobel`].
 fn sobel_vectorised<'a>(plane: &'a Plane) -> Gradients {
     let (w, h) = (plane.width, plane.height);
-    let mut dx = Plane::filled(w, h, 0.0);
-    let mut dy = Plane::filled(w, h, 0.0);
     if w == 0 || h == 0 {
-        return Gradients { dx, dy };
+        return Gradients {
+            dx: Plane::filled(w, h, 0.0),
+            dy: Plane::filled(w, h, 0.0),
+        };
     }
+    // Outputs grow row by row (`extend`), so they are written once, not zeroed first.
+    let (mut dx, mut dy) = (Vec::with_capacity(w * h), Vec::with_capacity(w * h));
     let mut diff = vec![0.0f32; 3 * w];
     let mut smooth = vec![0.0f32; 3 * w];
     let slot = |y: usize| (y % 3) * w..(y % 3 + 1) * w;
@@ -59,16 +62,19 @@ fn sobel_vectorised<'a>(plane: &'a Plane) -> Gradients {
         let (ym, yp) = (y.saturating_sub(1), (y + 1).min(h - 1));
         let (dm, d0, dp) = (&diff[slot(ym)], &diff[slot(y)], &diff[slot(yp)]);
         let (sm, sp) = (&smooth[slot(ym)], &smooth[slot(yp)]);
-        let out_x = &mut dx.data[y * w..(y + 1) * w];
-        for (((o, a), b), c) in out_x.iter_mut().zip(dm).zip(d0).zip(dp) {
-            *o = (a + 2.0 * b + c) * 0.125;
-        }
-        let out_y = &mut dy.data[y * w..(y + 1) * w];
-        for ((o, a), c) in out_y.iter_mut().zip(sm).zip(sp) {
-            *o = (c - a) * 0.125;
-        }
+        let row_x = dm.iter().zip(d0).zip(dp);
+        dx.extend(row_x.map(|((a, b), c)| (a + 2.0 * b + c) * 0.125));
+        dy.extend(sm.iter().zip(sp).map(|(a, c)| (c - a) * 0.125));
     }
-    Gradients { dx, dy }
+    let plane = |data| Plane {
+        width: w,
+        height: h,
+        data,
+    };
+    Gradients {
+        dx: plane(dx),
+        dy: plane(dy),
+    }
 }
 }
 
