@@ -88,35 +88,44 @@ fn gaussian_blur<'a>(plane: &'a Plane, sigma: f32) -> Plane {
     let sum: f32 = kernel.iter().sum();
     kernel.iter_mut().for_each(|k| *k /= sum);
     let (w, h) = (plane.width, plane.height);
+    // Each output row starts as `0.0 + k₀·s` (the first tap added to zero, as an accumulator
+    // would) and grows by `extend`, so no plane is zeroed before being written.
     // Rows: pad each row by replication once, then one vectorisable sweep per tap.
-    let mut tmp = Plane::filled(w, h, 0.0);
+    let mut tmp = Vec::with_capacity(w * h);
     let mut padded = vec![0.0f32; w + 2 * radius];
     for y in 0..h {
         let row = &plane.data[y * w..(y + 1) * w];
         padded[..radius].fill(row[0]);
         padded[radius..radius + w].copy_from_slice(row);
         padded[radius + w..].fill(row[w - 1]);
-        let dst = &mut tmp.data[y * w..(y + 1) * w];
-        for (k, &kv) in kernel.iter().enumerate() {
+        tmp.extend(padded[..w].iter().map(|s| 0.0 + kernel[0] * s));
+        let dst = &mut tmp[y * w..(y + 1) * w];
+        for (k, &kv) in kernel.iter().enumerate().skip(1) {
             for (d, s) in dst.iter_mut().zip(&padded[k..k + w]) {
                 *d += kv * s;
             }
         }
     }
     // Columns: accumulate whole rows so the inner loop runs along memory.
-    let mut out = Plane::filled(w, h, 0.0);
+    let mut out = Vec::with_capacity(w * h);
+    let source_row = |y: usize, k: usize| {
+        let sy = (y as isize + k as isize - radius as isize).clamp(0, h as isize - 1) as usize;
+        &tmp[sy * w..(sy + 1) * w]
+    };
     for y in 0..h {
-        let dst = &mut out.data[y * w..(y + 1) * w];
-        for (k, &kv) in kernel.iter().enumerate() {
-            let sy =
-                (y as isize + k as isize - radius as isize).clamp(0, h as isize - 1) as usize;
-            let src = &tmp.data[sy * w..(sy + 1) * w];
-            for (d, s) in dst.iter_mut().zip(src) {
+        out.extend(source_row(y, 0).iter().map(|s| 0.0 + kernel[0] * s));
+        let dst = &mut out[y * w..(y + 1) * w];
+        for (k, &kv) in kernel.iter().enumerate().skip(1) {
+            for (d, s) in dst.iter_mut().zip(source_row(y, k)) {
                 *d += kv * s;
             }
         }
     }
-    out
+    Plane {
+        width: w,
+        height: h,
+        data: out,
+    }
 }
 }
 
