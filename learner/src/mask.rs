@@ -360,7 +360,11 @@ fn or_shifted(row: &mut [u64], bits: &[u64], step: usize, padded: &mut Vec<u64>)
         // and its two neighbours, without the padded copy.
         for (i, out) in row.iter_mut().enumerate() {
             let below = if i > 0 { bits[i - 1] >> (64 - part) } else { 0 };
-            let above = if i + 1 < n { bits[i + 1] << (64 - part) } else { 0 };
+            let above = if i + 1 < n {
+                bits[i + 1] << (64 - part)
+            } else {
+                0
+            };
             *out |= (bits[i] << part) | below | (bits[i] >> part) | above;
         }
         return;

@@ -444,40 +444,78 @@ impl Workspace {
                 lower_to(&mut map[j as usize], median);
             }
         }
-        // Statistics over each map's pixels, resetting them to INFINITY as they are counted.
-        let mut acc = [(0usize, 0.0f64, 0.0f64, 0usize); 2];
-        for ray in &self.rays {
-            let kind = ray.kind as usize;
-            let map = &mut self.maps[kind];
-            // Locals for the ray's loop, so the sums stay in registers (same order of
-            // additions, so the same bits).
-            let (mut count, mut sum, mut sum_sq, rays) = acc[kind];
-            for &j in &self.pixels[ray.start as usize..ray.end as usize] {
-                let v = std::mem::replace(&mut map[j as usize], f32::INFINITY);
-                if v.is_finite() {
-                    let v = v as f64 * input.unit;
-                    count += 1;
-                    sum += v;
-                    sum_sq += v * v;
-                }
-            }
-            acc[kind] = (count, sum, sum_sq, rays + 1);
-        }
-        acc.map(|(count, sum, sum_sq, rays)| {
-            if count == 0 {
-                return WidthStats::default();
-            }
-            let mean = sum / count as f64;
-            let var = (sum_sq / count as f64 - mean * mean).max(0.0);
+        // Statistics over each map's pixels, resetting them to INFINITY for the next scale.
+        [OUTER, INNER].map(|kind| {
+            let (pixels, mean, variance) = summarise(&mut self.maps[kind][..n], input.unit);
             WidthStats {
                 mean,
-                std: var.sqrt(),
-                pixels: count,
-                rays,
+                std: variance.sqrt(),
+                pixels,
+                rays: self
+                    .rays
+                    .iter()
+                    .filter(|r| usize::from(r.kind) == kind)
+                    .count(),
             }
         })
     }
 }
+
+crate::simd::vectorised_fn! {
+/// Count, mean and population variance of the finite values of an SWT map, each times `unit`,
+/// resetting every value to `INFINITY` for the next scale.
+///
+/// A raster scan rather than a walk along the rays: each pixel is read once (rays share
+/// pixels), blocks without a value are skipped by one vectorised test, and the sums run in
+/// [`LANES`] interleaved partial sums so they vectorise. Two passes, the mean first and then
+/// the squared deviations from it: the one-pass `E[x²] − E[x]²` left rounding noise of up to
+/// 2·10⁻⁴ px as the deviation of strokes of one exact width.
+fn summarise<'a>(map: &'a mut [f32], unit: f64) -> (usize, f64, f64) {
+    let mut count = [0usize; LANES];
+    let mut sum = [0.0f64; LANES];
+    let mut blocks = map.chunks_exact(LANES);
+    for block in &mut blocks {
+        if block.iter().fold(true, |empty, v| empty & v.is_infinite()) {
+            continue;
+        }
+        for (lane, &v) in block.iter().enumerate() {
+            let finite = v.is_finite();
+            count[lane] += usize::from(finite);
+            sum[lane] += if finite { f64::from(v) * unit } else { 0.0 };
+        }
+    }
+    for &v in blocks.remainder().iter().filter(|v| v.is_finite()) {
+        count[0] += 1;
+        sum[0] += f64::from(v) * unit;
+    }
+    let count: usize = count.iter().sum();
+    if count == 0 {
+        return (0, 0.0, 0.0);
+    }
+    let mean = sum.iter().sum::<f64>() / count as f64;
+    let mut squares = [0.0f64; LANES];
+    let mut blocks = map.chunks_exact_mut(LANES);
+    for block in &mut blocks {
+        if block.iter().fold(true, |empty, v| empty & v.is_infinite()) {
+            continue;
+        }
+        for (lane, v) in block.iter_mut().enumerate() {
+            let deviation = if v.is_finite() { f64::from(*v) * unit - mean } else { 0.0 };
+            squares[lane] += deviation * deviation;
+            *v = f32::INFINITY;
+        }
+    }
+    for v in blocks.into_remainder().iter_mut().filter(|v| v.is_finite()) {
+        let deviation = f64::from(*v) * unit - mean;
+        squares[0] += deviation * deviation;
+        *v = f32::INFINITY;
+    }
+    (count, mean, squares.iter().sum::<f64>() / count as f64)
+}
+}
+
+/// Interleaved partial sums in [`summarise`].
+const LANES: usize = 8;
 
 /// `*v = v.min(x)` for the values met here: widths, finite and ≥ +0, or `INFINITY`. Such floats
 /// order like their bit patterns, so this is an integer minimum, without a branch (whether a

@@ -383,3 +383,48 @@ fn matches_brute_force_reference_on_synthetic_drawings() {
 fn matches_brute_force_reference_on_fixture() {
     assert_matches_reference("bicycle", &bicycle());
 }
+
+/// The map statistics against hand-computed values, a single width gives a deviation of
+/// (almost exactly) zero, and a nearly single width matches a plain two-pass computation.
+#[test]
+fn map_statistics_are_exact_for_known_values_and_one_width() {
+    let mut map = vec![f32::INFINITY; 1003];
+    for (k, v) in [(0, 1.0), (9, 2.0), (500, 3.0), (1002, 4.0)] {
+        map[k] = v;
+    }
+    let (count, mean, variance) = summarise(&mut map, 2.0);
+    assert_eq!(count, 4);
+    assert_eq!(mean, 5.0);
+    assert_eq!(variance, 5.0); // (9 + 1 + 1 + 9) / 4 at unit 2
+    assert!(map.iter().all(|v| v.is_infinite()), "the map is reset");
+
+    let width = 7.3f32;
+    let mut map = vec![f32::INFINITY; 160_000];
+    for i in (0..map.len()).step_by(7) {
+        map[i] = width;
+    }
+    let (count, mean, variance) = summarise(&mut map, 1.0);
+    assert_eq!(count, 160_000usize.div_ceil(7));
+    assert!((mean - f64::from(width)).abs() < 1e-12, "{mean}");
+    assert!(variance.sqrt() < 1e-9, "std {}", variance.sqrt());
+    // Nearly one width (1 pixel in 100 is 0.01 px wider), against a plain two-pass sum.
+    let mut map = vec![f32::INFINITY; 160_000];
+    let mut values = Vec::new();
+    for (k, i) in (0..map.len()).step_by(7).enumerate() {
+        map[i] = if k % 100 == 0 { 7.31 } else { 7.3 };
+        values.push(f64::from(map[i]) * 4.0);
+    }
+    let n = values.len() as f64;
+    let expected_mean = values.iter().sum::<f64>() / n;
+    let expected_variance = values
+        .iter()
+        .map(|v| (v - expected_mean).powi(2))
+        .sum::<f64>()
+        / n;
+    let (_, mean, variance) = summarise(&mut map, 4.0);
+    assert!((mean - expected_mean).abs() < 1e-12 * expected_mean);
+    assert!(
+        (variance.sqrt() - expected_variance.sqrt()).abs() < 1e-9,
+        "{variance}"
+    );
+}
