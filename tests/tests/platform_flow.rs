@@ -311,9 +311,12 @@ async fn worker_flow(db: TestDb) {
 both_databases!(worker_flow, worker_flow_sqlite, worker_flow_postgres);
 
 async fn quality_control(db: TestDb) {
+    // 20 hidden controls per HIT: a random clicker passes the ≥ 2-errors rule with
+    // probability (1 + 20) / 2²⁰ ≈ 2·10⁻⁵ (with 12 it was 13 / 2¹² ≈ 0.3% per spammer, and a
+    // CI run of both backends with three spammers each failed about once in 50).
     let opts = StudyOpts {
         questions: 24,
-        controls: 12,
+        controls: 20,
         tuples: 400,
         ..StudyOpts::default()
     };
@@ -370,12 +373,13 @@ async fn quality_control(db: TestDb) {
         assert!(w["control_errors"].as_i64().expect("errors") >= 2);
     }
 
-    // Dry run with a lenient threshold: would approve the spammers, changes nothing.
+    // Dry run with a threshold above the number of controls: would approve the spammers,
+    // changes nothing.
     let (status, dry) = send(
         c.post(format!("{base}/api/v1/admin/studies/{study}/qc"))
             .header("cookie", &cookie)
             .header("x-csrf-token", &csrf)
-            .json(&json!({"threshold": 13, "dry_run": true})),
+            .json(&json!({"threshold": opts.controls + 1, "dry_run": true})),
     )
     .await;
     assert_eq!(status, 200, "{dry}");
@@ -435,7 +439,7 @@ async fn quality_control(db: TestDb) {
             .all(|d| d["rule"] == "control_errors>=2")
     );
 
-    // Rejected HITs are excluded from triplets.csv (12 main questions per HIT).
+    // Rejected HITs are excluded from triplets.csv (24 − 20 = 4 main questions per HIT).
     let csv = c
         .get(format!(
             "{base}/api/v1/admin/studies/{study}/export/triplets.csv"
@@ -447,7 +451,8 @@ async fn quality_control(db: TestDb) {
         .text()
         .await
         .expect("csv");
-    assert_eq!(csv.lines().count() - 1, 7 * 12);
+    let main_questions = (opts.questions - opts.controls) as usize;
+    assert_eq!(csv.lines().count() - 1, 7 * main_questions);
     let with_rejected = c
         .get(format!(
             "{base}/api/v1/admin/studies/{study}/export/triplets.csv?include_rejected=true&include_controls=true"

@@ -557,7 +557,8 @@ fn cell_flags(input: &ScaleInput, flags: &mut Vec<u8>) {
 struct Walk {
     /// `q`, when the ray is accepted.
     end: Option<usize>,
-    /// Pixels written to the buffer, from `p` to where the walk stopped.
+    /// How many pixels at the start of the buffer are the ray's (`p` to `q` inclusive) when
+    /// the walk reached an edge pixel `q`; 0 when it left Ω or the image first.
     cells: usize,
 }
 
