@@ -37,7 +37,7 @@ use tokio::sync::{mpsc, oneshot};
 
 use crate::db::{Backend, now_ms};
 use crate::error::{AppError, Result};
-use crate::flow::{AnswerTarget, TargetQuestion};
+use crate::flow::AnswerTarget;
 use crate::ids::{AssignmentId, StudyId};
 
 /// Most answers written in one transaction (bounds the time the writer is held).
@@ -378,24 +378,10 @@ async fn submit_batch(
     let mut targets: Vec<Option<AnswerTarget>> = (0..submits.len()).map(|_| None).collect();
     for r in &rows {
         let k: i64 = r.try_get("k")?;
-        let question = match r.try_get::<Option<i64>, _>("position")? {
-            None => None,
-            Some(_) => Some(TargetQuestion {
-                b: r.try_get("b")?,
-                c: r.try_get("c")?,
-                ask_reasons: r.try_get::<i64, _>("ask_reasons")? != 0,
-                choice: r.try_get("choice")?,
-            }),
-        };
         let slot = targets
             .get_mut(k as usize)
             .ok_or_else(|| AppError::Internal("batch read: key out of range".into()))?;
-        *slot = Some(AnswerTarget {
-            assignment: AssignmentId(r.try_get("id")?),
-            study: StudyId(r.try_get("study_id")?),
-            status: r.try_get("status")?,
-            question,
-        });
+        *slot = Some(AnswerTarget::from_row(r)?);
     }
     // Decide each answer in arrival order; `planned` holds this batch's earlier stores.
     let mut planned: HashMap<(i64, i64), &'static str> = HashMap::new();

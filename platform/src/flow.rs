@@ -1104,6 +1104,28 @@ impl AnswerTarget {
     }
 }
 
+impl AnswerTarget {
+    /// Decodes a row with the assignment's `id`, `study_id` and `status` and the question's
+    /// `position` (NULL: no such question), `b`, `c`, `ask_reasons` and `choice`.
+    pub(crate) fn from_row(r: &sqlx::any::AnyRow) -> Result<Self> {
+        let question = match r.try_get::<Option<i64>, _>("position")? {
+            None => None,
+            Some(_) => Some(TargetQuestion {
+                b: r.try_get("b")?,
+                c: r.try_get("c")?,
+                ask_reasons: r.try_get::<i64, _>("ask_reasons")? != 0,
+                choice: r.try_get("choice")?,
+            }),
+        };
+        Ok(AnswerTarget {
+            assignment: AssignmentId(r.try_get("id")?),
+            study: StudyId(r.try_get("study_id")?),
+            status: r.try_get("status")?,
+            question,
+        })
+    }
+}
+
 pub(crate) struct TargetQuestion {
     pub(crate) b: i64,
     pub(crate) c: i64,
@@ -1129,21 +1151,7 @@ async fn answer_target(db: &Db, token: &str, position: i64) -> Result<AnswerTarg
     .fetch_optional(&db.pool)
     .await?
     .ok_or(AppError::NotFound("assignment"))?;
-    let question = match r.try_get::<Option<i64>, _>("position")? {
-        None => None,
-        Some(_) => Some(TargetQuestion {
-            b: r.try_get("b")?,
-            c: r.try_get("c")?,
-            ask_reasons: r.try_get::<i64, _>("ask_reasons")? != 0,
-            choice: r.try_get("choice")?,
-        }),
-    };
-    Ok(AnswerTarget {
-        assignment: AssignmentId(r.try_get("id")?),
-        study: StudyId(r.try_get("study_id")?),
-        status: r.try_get("status")?,
-        question,
-    })
+    AnswerTarget::from_row(&r)
 }
 
 /// Stores an answer (idempotent: the same answer again is acknowledged as a duplicate; a
