@@ -148,11 +148,25 @@ fn dropped() -> AppError {
 }
 
 impl AnswerWriter {
-    /// Starts the batching task on the current tokio runtime, writing through `writer`.
-    pub fn start(writer: AnyPool, backend: Backend) -> Self {
+    /// Starts the batching task, writing through `writer`, on a thread of its own with a
+    /// single-threaded runtime.
+    ///
+    /// Why a thread: a batch awaits its connection about twenty times (begin, five statements,
+    /// each completion's and each job's statements, commit). On the server's runtime every one
+    /// of those wake-ups queued behind the HTTP tasks, and the single writer, which bounds the
+    /// answer rate, waited to be polled instead of writing (`platform bench`, 200 workers:
+    /// +8% answers/s on its own thread).
+    pub fn start(writer: AnyPool, backend: Backend) -> Result<Self> {
         let (queue, rx) = mpsc::unbounded_channel();
-        tokio::spawn(run(writer, backend, rx));
-        Self { queue }
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .map_err(AppError::internal)?;
+        std::thread::Builder::new()
+            .name("answer-writer".into())
+            .spawn(move || runtime.block_on(run(writer, backend, rx)))
+            .map_err(AppError::internal)?;
+        Ok(Self { queue })
     }
 
     /// Stores one answer; returns what the conditional `UPDATE` did once the transaction

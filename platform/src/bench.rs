@@ -55,6 +55,30 @@ pub struct Measurement {
     pub errors: usize,
     /// 99th percentile latency of the HIT starts (allocations) in the phase, ms (NaN: none).
     pub start_p99_ms: f64,
+    /// CPU time of this whole process (server and simulated clients) per successful request,
+    /// µs (NaN where `/proc` is missing). Unlike the rate it does not depend on what else the
+    /// machine runs, so the ratio of two of them is the throughput ratio of a CPU-bound server.
+    pub cpu_us: f64,
+}
+
+/// CPU seconds (user + system) this process has used so far, from `/proc/self/stat` (Linux
+/// reports them in USER_HZ = 1/100 s).
+fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name, which may itself contain spaces.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    // utime and stime are fields 14 and 15 of the whole line, 12 and 13 after the name.
+    let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
+/// CPU time since `since` (from [`process_cpu_seconds`]) per request, µs.
+fn cpu_per_request(since: Option<f64>, requests: f64) -> f64 {
+    match (since, process_cpu_seconds()) {
+        (Some(a), Some(b)) if requests > 0.0 => (b - a) * 1e6 / requests,
+        _ => f64::NAN,
+    }
 }
 
 /// The `p` quantile of sorted `lat` (NaN when empty).
@@ -74,6 +98,7 @@ fn summarise(mut lat: Vec<f64>, errors: usize, elapsed: Duration) -> Measurement
         p99_ms: quantile(&lat, 0.99),
         errors,
         start_p99_ms: f64::NAN,
+        cpu_us: f64::NAN,
     }
 }
 
@@ -130,7 +155,7 @@ pub(crate) async fn prepare(db: &Db, workers: usize, seconds: u64) -> Result<Stu
 async fn healthz_phase(base: &str, workers: usize, seconds: u64) -> Measurement {
     let client = reqwest::Client::new();
     let stop = Arc::new(AtomicBool::new(false));
-    let start = Instant::now();
+    let (start, cpu) = (Instant::now(), process_cpu_seconds());
     let mut tasks = Vec::new();
     for _ in 0..workers {
         let (client, stop, url) = (client.clone(), stop.clone(), format!("{base}/healthz"));
@@ -148,7 +173,7 @@ async fn healthz_phase(base: &str, workers: usize, seconds: u64) -> Measurement 
     }
     tokio::time::sleep(Duration::from_secs(seconds)).await;
     stop.store(true, Ordering::Relaxed);
-    collect(tasks, start).await
+    collect(tasks, start, cpu).await
 }
 
 /// Joins the phase's workers; the rate is over the time from `since` until the last of them
@@ -157,6 +182,7 @@ async fn healthz_phase(base: &str, workers: usize, seconds: u64) -> Measurement 
 async fn collect(
     tasks: Vec<tokio::task::JoinHandle<(Vec<f64>, usize)>>,
     since: Instant,
+    cpu_since: Option<f64>,
 ) -> Measurement {
     let (mut lat, mut errors) = (Vec::new(), 0);
     for t in tasks {
@@ -165,7 +191,10 @@ async fn collect(
             errors += e;
         }
     }
-    summarise(lat, errors, since.elapsed())
+    let requests = lat.len() as f64;
+    let mut m = summarise(lat, errors, since.elapsed());
+    m.cpu_us = cpu_per_request(cpu_since, requests);
+    m
 }
 
 /// One simulated worker: its current HIT and the answers it will give.
@@ -269,7 +298,7 @@ async fn closed_phase(
     let client = reqwest::Client::new();
     let stop = Arc::new(AtomicBool::new(false));
     let starts = Starts::default();
-    let start = Instant::now();
+    let (start, cpu) = (Instant::now(), process_cpu_seconds());
     let mut tasks = Vec::new();
     for w in 0..workers {
         let mut worker =
@@ -294,7 +323,7 @@ async fn closed_phase(
     }
     tokio::time::sleep(Duration::from_secs(seconds)).await;
     stop.store(true, Ordering::Relaxed);
-    let mut m = collect(tasks, start).await;
+    let mut m = collect(tasks, start, cpu).await;
     m.start_p99_ms = start_p99(&starts);
     m
 }
@@ -334,6 +363,7 @@ async fn paced_phase(
     start_p99(&starts); // the warm-up's starts are not part of the measurement
     let interval = Duration::from_secs_f64(workers as f64 / rate);
     let t0 = Instant::now() + Duration::from_millis(100);
+    let cpu = process_cpu_seconds();
     let end = t0 + Duration::from_secs(seconds);
     let mut tasks = Vec::new();
     for mut worker in ready {
@@ -359,7 +389,7 @@ async fn paced_phase(
             (lat, errors)
         }));
     }
-    let mut m = collect(tasks, t0).await;
+    let mut m = collect(tasks, t0, cpu).await;
     m.start_p99_ms = start_p99(&starts);
     Ok(m)
 }
@@ -399,7 +429,7 @@ async fn hit_questions(db: &Db, token: &str) -> Result<Vec<(i64, i64)>> {
 /// One printed row.
 fn row(workers: usize, mode: &str, healthz: &Measurement, m: &Measurement) -> Result<()> {
     outln!(
-        "{:>8} {:<14} | {:>10.0} {:>8.2} {:>8.2} {:>6} {:>9.1} | {:>10.0} {:>6.2}",
+        "{:>8} {:<14} | {:>10.0} {:>8.2} {:>8.2} {:>6} {:>9.1} {:>6.0} | {:>10.0} {:>6.0} | {:>6.2} {:>6.2}",
         workers,
         mode,
         m.per_second,
@@ -407,8 +437,11 @@ fn row(workers: usize, mode: &str, healthz: &Measurement, m: &Measurement) -> Re
         m.p99_ms,
         m.errors,
         m.start_p99_ms,
+        m.cpu_us,
         healthz.per_second,
-        m.per_second / healthz.per_second
+        healthz.cpu_us,
+        m.per_second / healthz.per_second,
+        healthz.cpu_us / m.cpu_us
     )
 }
 
@@ -444,7 +477,11 @@ pub async fn run(args: BenchArgs) -> Result<()> {
     )?;
     outln!("start p99: HIT starts (allocations) of the phase, not counted as answers")?;
     outln!(
-        "{:>8} {:<14} | {:>10} {:>8} {:>8} {:>6} {:>9} | {:>10} {:>6}",
+        "cpu µs: CPU time of this process (server + clients) per answer or /healthz request; \
+         cpu ratio = healthz cpu / answer cpu, the rate ratio of a CPU-bound machine"
+    )?;
+    outln!(
+        "{:>8} {:<14} | {:>10} {:>8} {:>8} {:>6} {:>9} {:>6} | {:>10} {:>6} | {:>6} {:>6}",
         "workers",
         "mode",
         "answers/s",
@@ -452,8 +489,11 @@ pub async fn run(args: BenchArgs) -> Result<()> {
         "p99 ms",
         "errors",
         "start p99",
+        "cpu µs",
         "healthz/s",
-        "ratio"
+        "cpu µs",
+        "ratio",
+        "cpu r."
     )?;
     for &w in &args.workers {
         let h = healthz_phase(&base, w, args.seconds).await;

