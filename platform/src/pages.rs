@@ -28,6 +28,7 @@ pub fn routes() -> Router<AppState> {
     Router::new()
         .route("/", get(home))
         .route("/media/items/{file}", get(media))
+        .route("/static/{file}", get(crate::assets::serve))
         .route("/s/{study}", get(start_page))
         .route("/s/{study}/start", post(start_submit))
         .route("/a/{token}", get(assignment_page))
@@ -832,7 +833,9 @@ struct AdminStudy {
     agreement: String,
     ceiling: String,
     median: String,
-    histogram: Vec<(i64, i64, i64)>,
+    /// `(control errors, completed HITs)`, drawn as `<meter>`s up to `histogram_max`.
+    histogram: Vec<(i64, i64)>,
+    histogram_max: i64,
     per_hour: Vec<(String, i64)>,
     threshold: u32,
     qc: Vec<RuleOutcome>,
@@ -920,18 +923,13 @@ async fn study_page(
     let s = study::load(&state.db, id).await?;
     let (d, workers) = dashboard::compute(&state.db, &s).await?;
     let models = train::list(&state.db, id).await?;
-    let max = d
+    let histogram_max = d
         .control_error_histogram
         .iter()
         .map(|x| x.1)
         .max()
         .unwrap_or(1)
         .max(1);
-    let histogram = d
-        .control_error_histogram
-        .iter()
-        .map(|&(e, c)| (e, c, c * 300 / max))
-        .collect();
     render(&AdminStudy {
         id,
         name: s.name.clone(),
@@ -945,7 +943,8 @@ async fn study_page(
         agreement: fmt_opt(d.agreement_with_majority),
         ceiling: fmt_opt(d.noise_ceiling),
         median: fmt_opt(d.median_seconds_per_question),
-        histogram,
+        histogram: d.control_error_histogram.clone(),
+        histogram_max,
         per_hour: d
             .answers_per_hour
             .iter()

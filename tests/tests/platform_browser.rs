@@ -12,7 +12,8 @@ use e2e::workspace_root;
 use fantoccini::{Client, ClientBuilder, Locator};
 use serde_json::json;
 
-struct Driver(Child);
+/// A running chromedriver and its port.
+struct Driver(Child, u16);
 
 impl Drop for Driver {
     fn drop(&mut self) {
@@ -51,8 +52,11 @@ async fn browser(profile: &Path) -> Option<(Driver, Client)> {
             .stderr(Stdio::null())
             .spawn()
             .expect("start chromedriver"),
+        port,
     );
     let caps = json!({
+        // The browser's console, where Chromium reports Content-Security-Policy violations.
+        "goog:loggingPrefs": {"browser": "ALL"},
         "goog:chromeOptions": {
             "binary": chromium,
             "args": [
@@ -75,6 +79,34 @@ async fn browser(profile: &Path) -> Option<(Driver, Client)> {
         }
     }
     panic!("could not open a WebDriver session");
+}
+
+/// The browser console's Content-Security-Policy violation reports since the last call
+/// (chromedriver's log endpoint; reading the log empties it).
+async fn csp_violations(c: &Client, driver: &Driver) -> Vec<String> {
+    let session = c
+        .session_id()
+        .await
+        .expect("session id")
+        .expect("a WebDriver session");
+    let (status, log) = send(
+        client()
+            .post(format!(
+                "http://127.0.0.1:{}/session/{session}/se/log",
+                driver.1
+            ))
+            .json(&json!({"type": "browser"})),
+    )
+    .await;
+    assert_eq!(status, 200, "browser log: {log}");
+    log["value"]
+        .as_array()
+        .expect("log entries")
+        .iter()
+        .filter_map(|e| e["message"].as_str())
+        .filter(|m| m.contains("Content Security Policy"))
+        .map(str::to_string)
+        .collect()
 }
 
 async fn shot(c: &Client, dir: &Path, name: &str) {
@@ -108,7 +140,7 @@ fn honest(reference: i64, left: i64, right: i64, styles: &HashMap<i64, String>) 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn worker_and_admin_flows_in_chromium() {
     let profile = tempfile::tempdir().expect("profile dir");
-    let Some((_driver, c)) = browser(profile.path()).await else {
+    let Some((driver, c)) = browser(profile.path()).await else {
         return;
     };
     let artifacts = workspace_root().join("target/e2e-artifacts/platform-browser");
@@ -223,6 +255,12 @@ async fn worker_and_admin_flows_in_chromium() {
             let pick = honest(reference, l, r, &styles);
             if n == 0 {
                 shot(&c, &artifacts, "04-question.png").await;
+                // The style sheet is a file now (the CSP allows no inline style): it applied.
+                let width = c
+                    .execute("return getComputedStyle(document.body).maxWidth;", vec![])
+                    .await
+                    .expect("script");
+                assert_eq!(width, json!("960px"), "style.css did not apply");
             }
             mark(&c).await;
             if n % 2 == 0 {
@@ -296,6 +334,8 @@ async fn worker_and_admin_flows_in_chromium() {
         .await
         .expect("text");
     assert_eq!(again, code);
+    let violations = csp_violations(&c, &driver).await;
+    assert!(violations.is_empty(), "worker pages: {violations:?}");
 
     // Admin: login, study list, dashboard with this worker.
     c.goto(&server.url("/admin/login"))
@@ -397,6 +437,8 @@ async fn worker_and_admin_flows_in_chromium() {
         "updated without a reload"
     );
     shot(&c, &artifacts, "09-admin-dashboard-live.png").await;
+    let violations = csp_violations(&c, &driver).await;
+    assert!(violations.is_empty(), "admin pages: {violations:?}");
 
     // Train the style metric from the page; the model appears with its report.
     c.find(Locator::Id("train"))
@@ -448,6 +490,34 @@ async fn worker_and_admin_flows_in_chromium() {
         .expect("text");
     assert_eq!(title, "Style metric report");
     shot(&c, &artifacts, "10-admin-model-report.png").await;
+    let violations = csp_violations(&c, &driver).await;
+    assert!(violations.is_empty(), "model report: {violations:?}");
+
+    // The check above can see a violation: an injected inline script is blocked and reported.
+    c.goto(&server.url(&format!("/admin/studies/{study}")))
+        .await
+        .expect("dashboard");
+    let blocked = c
+        .execute(
+            "const s = document.createElement('script'); s.textContent = 'window.__ran = true;'; \
+             document.head.appendChild(s); return window.__ran === undefined;",
+            vec![],
+        )
+        .await
+        .expect("script");
+    assert_eq!(blocked, json!(true), "the CSP let an inline script run");
+    let mut seen = Vec::new();
+    for _ in 0..50 {
+        seen = csp_violations(&c, &driver).await;
+        if !seen.is_empty() {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    assert!(
+        seen.iter().any(|m| m.contains("script-src")),
+        "the injected inline script was not reported: {seen:?}"
+    );
     let _ = saw_reasons;
     c.close().await.expect("close");
 }
