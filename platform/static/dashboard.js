@@ -1,5 +1,6 @@
-// The admin study page's live dashboard: re-reads the dashboard JSON (the same numbers the page
-// was rendered with) periodically, and reloads the page once a running training has finished.
+// The admin study page's live dashboard: re-reads the dashboard and per-worker JSON (the same
+// numbers and rows the page was rendered with) periodically, and reloads the page once a running
+// training has finished.
 // Served as a file because the page's Content-Security-Policy allows no inline script; the
 // study id comes from the page's `data-study` attribute. Values go in with textContent only.
 (function () {
@@ -13,11 +14,13 @@
   const hour = ms => new Date(ms).toISOString().slice(0, 13).replace("T", " ") + ":00 UTC";
   const status = document.getElementById("live-status");
 
-  // Replaces a table's rows after the first `keep` (header rows) with one row per item.
-  function rows(table, data, cells, keep = 0) {
+  // Replaces a table's rows after the first `keep` (header rows) with one row per item;
+  // `mark(tr, item)` may set the row's attributes.
+  function rows(table, data, cells, keep = 0, mark = null) {
     while (table.rows.length > keep) table.deleteRow(keep);
     for (const item of data) {
       const tr = table.insertRow();
+      if (mark) mark(tr, item);
       for (const c of cells(item)) {
         const td = tr.insertCell();
         if (c instanceof Node) td.appendChild(c); else td.textContent = c;
@@ -29,6 +32,37 @@
     const r = await fetch(api + path, {credentials: "same-origin"});
     if (!r.ok) throw new Error("HTTP " + r.status);
     return r.json();
+  }
+
+  // The cells of one worker-table row, as the page renders them (templates/admin_study.html);
+  // completed HITs get the approve/reject override form with the session's CSRF token.
+  function workerCells(w, csrf) {
+    const cells = [
+      w.worker, w.source, w.status, w.decision || "", w.answered + "/" + w.questions,
+      String(w.control_errors), String(w.training_attempts),
+      (w.median_seconds === null || w.median_seconds === undefined) ? "" : w.median_seconds.toFixed(1),
+    ];
+    if (w.status !== "completed") return cells.concat([""]);
+    const form = document.createElement("form");
+    form.method = "post";
+    form.action = "/admin/studies/" + encodeURIComponent(study) + "/decision";
+    const hidden = (name, value) => {
+      const input = document.createElement("input");
+      input.type = "hidden";
+      input.name = name;
+      input.value = value;
+      form.appendChild(input);
+    };
+    hidden("csrf", csrf);
+    hidden("assignment", String(w.assignment));
+    for (const decision of ["approved", "rejected"]) {
+      const button = document.createElement("button");
+      button.name = "decision";
+      button.value = decision;
+      button.textContent = decision === "approved" ? "approve" : "reject";
+      form.appendChild(button);
+    }
+    return cells.concat([form]);
   }
 
   async function refresh() {
@@ -46,7 +80,14 @@
         return [String(e), String(n), bar];
       });
       rows(document.getElementById("per-hour"), d.answers_per_hour, ([h, n]) => [hour(h), String(n)]);
-      status.textContent = "Live: updated " + new Date().toLocaleTimeString() + " (the worker table updates on reload).";
+      const workers = document.getElementById("workers");
+      // Not while the admin is pressing an override button: rebuilding would swallow the click.
+      if (!workers.contains(document.activeElement)) {
+        const list = await getJson("/workers");
+        rows(workers, list, w => workerCells(w, workers.dataset.csrf), 1,
+          (tr, w) => { tr.dataset.assignment = String(w.assignment); });
+      }
+      status.textContent = "Live: updated " + new Date().toLocaleTimeString() + ".";
       if (document.querySelector('#model-list tr[data-status="running"]')) {
         const models = await getJson("/models");
         if (!models.some(x => x.status === "running")) location.reload();
@@ -59,6 +100,6 @@
   // `?refresh=S` sets the period in seconds (1–600).
   const asked = Number(new URLSearchParams(location.search).get("refresh"));
   const period = (asked >= 1 && asked <= 600) ? asked : 10;
-  status.textContent = "Live: these numbers refresh every " + period + " seconds.";
+  status.textContent = "Live: these numbers and the worker table refresh every " + period + " seconds.";
   setInterval(refresh, period * 1000);
 })();

@@ -412,7 +412,42 @@ async fn worker_and_admin_flows_in_chromium() {
     let before: i64 = answers_cell().await.parse().expect("answer count");
     mark(&c).await;
     let http = client();
-    for i in 0..4 {
+    // The worker table is live too: a new worker's row appears while they answer and turns
+    // into a completed HIT with the override buttons, all without a reload.
+    let rows_before = worker_rows(&c).await;
+    assert_eq!(rows_before.len(), 1, "{rows_before:?}");
+    let token = start_worker(&http, &server.base, study, "api-0").await;
+    pass_training(&http, &server.base, &token, &styles, Behaviour::Honest).await;
+    let active = wait_rows(&c, |r| {
+        r.len() == 2 && r.iter().any(|w| w.status == "active")
+    })
+    .await;
+    let new_row = active
+        .iter()
+        .find(|w| !rows_before.iter().any(|b| b.assignment == w.assignment))
+        .expect("the new worker's row")
+        .clone();
+    assert_eq!(new_row.answered, "0/6", "{new_row:?}");
+    assert_eq!(
+        new_row.buttons, 0,
+        "no override before the HIT is completed"
+    );
+    answer_all(&http, &server.base, &token, &styles, Behaviour::Honest).await;
+    let done = wait_rows(&c, |r| {
+        r.iter()
+            .any(|w| w.assignment == new_row.assignment && w.status == "completed")
+    })
+    .await;
+    let row = done
+        .iter()
+        .find(|w| w.assignment == new_row.assignment)
+        .expect("row");
+    assert_eq!(
+        (row.answered.as_str(), row.decision.as_str(), row.buttons),
+        ("6/6", "approved", 2),
+        "{row:?}"
+    );
+    for i in 1..4 {
         let token = start_worker(&http, &server.base, study, &format!("api-{i}")).await;
         pass_training(&http, &server.base, &token, &styles, Behaviour::Honest).await;
         answer_all(&http, &server.base, &token, &styles, Behaviour::Honest).await;
@@ -436,7 +471,38 @@ async fn worker_and_admin_flows_in_chromium() {
         serde_json::Value::Bool(true),
         "updated without a reload"
     );
+    let all = wait_rows(&c, |r| {
+        r.len() == 5 && r.iter().all(|w| w.status == "completed")
+    })
+    .await;
     shot(&c, &artifacts, "09-admin-dashboard-live.png").await;
+    // The override form the script built posts with the CSRF token: reject the new worker's HIT
+    // (the page reloads with the decision), then approve it again.
+    assert!(all.iter().any(|w| w.assignment == new_row.assignment));
+    for (button, want) in [(1, "rejected"), (0, "approved")] {
+        mark(&c).await;
+        // The live refresh may replace the row between finding and clicking: then find again.
+        let css = format!(
+            "#workers tr[data-assignment=\"{}\"] form button",
+            new_row.assignment
+        );
+        let mut clicked = false;
+        for _ in 0..5 {
+            let buttons = c.find_all(Locator::Css(&css)).await.expect("buttons");
+            if buttons[button].click().await.is_ok() {
+                clicked = true;
+                break;
+            }
+        }
+        assert!(clicked, "could not click the override button");
+        wait_navigated(&c).await;
+        let rows = worker_rows(&c).await;
+        let row = rows
+            .iter()
+            .find(|w| w.assignment == new_row.assignment)
+            .expect("row after the override");
+        assert_eq!(row.decision, want, "{row:?}");
+    }
     let violations = csp_violations(&c, &driver).await;
     assert!(violations.is_empty(), "admin pages: {violations:?}");
 
@@ -520,6 +586,60 @@ async fn worker_and_admin_flows_in_chromium() {
     );
     let _ = saw_reasons;
     c.close().await.expect("close");
+}
+
+/// One row of the admin page's worker table, as shown.
+#[derive(Debug, Clone)]
+struct WorkerRowShown {
+    assignment: String,
+    status: String,
+    decision: String,
+    answered: String,
+    /// Override buttons in the row.
+    buttons: u64,
+}
+
+async fn worker_rows(c: &Client) -> Vec<WorkerRowShown> {
+    let rows = c
+        .execute(
+            "return Array.from(document.querySelectorAll('#workers tr[data-assignment]')).map(r => \
+             [r.dataset.assignment, r.cells[2].textContent, r.cells[3].textContent, \
+              r.cells[4].textContent, r.querySelectorAll('form button').length]);",
+            vec![],
+        )
+        .await
+        .expect("read the worker table");
+    let text = |v: &serde_json::Value| v.as_str().expect("text").to_string();
+    rows.as_array()
+        .expect("rows")
+        .iter()
+        .map(|r| WorkerRowShown {
+            assignment: text(&r[0]),
+            status: text(&r[1]),
+            decision: text(&r[2]),
+            answered: text(&r[3]),
+            buttons: r[4].as_u64().expect("count"),
+        })
+        .collect()
+}
+
+/// Waits (up to 10 s, the page refreshing every second) until the worker table satisfies
+/// `ok`, and checks that the page was not reloaded meanwhile.
+async fn wait_rows(c: &Client, ok: impl Fn(&[WorkerRowShown]) -> bool) -> Vec<WorkerRowShown> {
+    let mut rows = Vec::new();
+    for _ in 0..100 {
+        rows = worker_rows(c).await;
+        if ok(&rows) {
+            let same_document = c
+                .execute("return window.__old === true;", vec![])
+                .await
+                .expect("script");
+            assert_eq!(same_document, json!(true), "the page was reloaded");
+            return rows;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    panic!("the worker table did not update: {rows:?}");
 }
 
 /// Marks the current document; [`wait_navigated`] waits until a new one has loaded.
