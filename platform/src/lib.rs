@@ -49,6 +49,7 @@ pub mod library;
 pub mod pages;
 pub mod qc;
 pub mod study;
+pub mod study_edit;
 pub mod train;
 
 /// Server-wide settings that are not in the database.
