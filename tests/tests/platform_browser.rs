@@ -503,6 +503,58 @@ async fn worker_and_admin_flows_in_chromium() {
             .expect("row after the override");
         assert_eq!(row.decision, want, "{row:?}");
     }
+    // Settings edited on the page (with its CSRF token) are saved, listed with who changed
+    // them, and take effect: the blocked worker cannot start.
+    c.find(Locator::Id("settings-fixed-now"))
+        .await
+        .expect("the HIT shape is fixed once assignments exist");
+    for (css, value) in [
+        ("textarea[name=description]", "Edited in the browser."),
+        ("input[name=reject_at_control_errors]", "3"),
+        ("textarea[name=blocked_workers]", "BROWSER-BLOCKED"),
+    ] {
+        let field = c.find(Locator::Css(css)).await.expect(css);
+        field.clear().await.expect("clear");
+        field.send_keys(value).await.expect("type");
+    }
+    mark(&c).await;
+    c.find(Locator::Id("save-settings"))
+        .await
+        .expect("save")
+        .click()
+        .await
+        .expect("click");
+    wait_navigated(&c).await;
+    let changes = c
+        .find(Locator::Id("settings-changes"))
+        .await
+        .expect("changes")
+        .text()
+        .await
+        .expect("text");
+    for field in ["description", "reject_at_control_errors", "blocked_workers"] {
+        assert!(
+            changes
+                .lines()
+                .any(|l| l.contains(field) && l.contains("admin:admin")),
+            "{field} not listed: {changes}"
+        );
+    }
+    let description = c
+        .find(Locator::Css("textarea[name=description]"))
+        .await
+        .expect("description")
+        .prop("value")
+        .await
+        .expect("value");
+    assert_eq!(description.as_deref(), Some("Edited in the browser."));
+    let (status, body) = send(
+        http.post(server.url(&format!("/api/v1/studies/{study}/start")))
+            .json(&json!({"source": "direct", "worker_id": "BROWSER-BLOCKED"})),
+    )
+    .await;
+    assert_eq!(status, 403, "{body}");
+    shot(&c, &artifacts, "10-admin-settings.png").await;
     let violations = csp_violations(&c, &driver).await;
     assert!(violations.is_empty(), "admin pages: {violations:?}");
 
@@ -555,7 +607,7 @@ async fn worker_and_admin_flows_in_chromium() {
         .await
         .expect("text");
     assert_eq!(title, "Style metric report");
-    shot(&c, &artifacts, "10-admin-model-report.png").await;
+    shot(&c, &artifacts, "11-admin-model-report.png").await;
     let violations = csp_violations(&c, &driver).await;
     assert!(violations.is_empty(), "model report: {violations:?}");
 

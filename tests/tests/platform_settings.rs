@@ -380,6 +380,69 @@ async fn edit_settings(db: TestDb) {
     assert_eq!(description["old"], "Compare the style of clip art.");
     assert_eq!(description["new"], "Rate the <b>style</b>, please.");
 
+    // The study page's settings form: CSRF required, fields parsed with their names, the
+    // same rules, audited like the API.
+    let form_url = format!("{base}/admin/studies/{study}/settings");
+    let post_form = |fields: Vec<(&'static str, &'static str)>, csrf: bool| {
+        let mut fields = fields;
+        if csrf {
+            fields.push(("csrf", api.csrf.as_str()));
+        }
+        c.post(&form_url)
+            .header("cookie", &api.cookie)
+            .form(&fields)
+            .send()
+    };
+    let resp = post_form(vec![("max_training_attempts", "2")], false)
+        .await
+        .expect("form");
+    assert_eq!(resp.status().as_u16(), 403, "settings form without CSRF");
+    for (fields, want, mention) in [
+        (
+            vec![("max_training_attempts", "lots")],
+            400,
+            "max_training_attempts",
+        ),
+        (
+            vec![("exclude_workers_of", "12, x")],
+            400,
+            "exclude_workers_of",
+        ),
+        (vec![("mturk_mode", "moon")], 400, "mturk_mode"),
+        (vec![("tuples", "5")], 400, "tuples"),
+        (vec![("questions_per_hit", "10")], 409, "questions_per_hit"),
+    ] {
+        let resp = post_form(fields.clone(), true).await.expect("form");
+        assert_eq!(resp.status().as_u16(), want, "{fields:?}");
+        let page = resp.text().await.expect("html");
+        assert!(page.contains(mention), "{fields:?}: {page}");
+    }
+    let resp = post_form(
+        vec![
+            ("max_training_attempts", "2"),
+            ("blocked_workers", "BLOCKED-1\r\nBLOCKED-2\r\n"),
+            ("prolific_screenout_code", " OUT7 "),
+        ],
+        true,
+    )
+    .await
+    .expect("form");
+    assert_eq!(resp.status().as_u16(), 303);
+    let now = api.settings(study).await;
+    assert_eq!(now["max_training_attempts"], 2);
+    assert_eq!(now["blocked_workers"], json!(["BLOCKED-1", "BLOCKED-2"]));
+    assert_eq!(now["prolific_screenout_code"], "OUT7");
+    let page = admin_text(&c, &format!("{base}/admin/studies/{study}"), &api.cookie).await;
+    assert!(
+        page.contains("id=\"settings-fixed-now\""),
+        "shape fixed: {page}"
+    );
+    assert!(!page.contains("name=\"questions_per_hit\""), "{page}");
+    let (_, changes) = api
+        .get(&format!("/api/v1/admin/studies/{study}/settings/changes"))
+        .await;
+    assert_eq!(changes.as_array().map(Vec::len), Some(16), "{changes}");
+
     // The OpenAPI document describes the edit.
     let (_, doc) = send(c.get(format!("{base}/api/v1/openapi.json"))).await;
     let path = &doc["paths"]["/api/v1/admin/studies/{study}/settings"];
