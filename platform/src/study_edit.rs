@@ -87,10 +87,8 @@ pub struct FieldChange {
     /// The settings field.
     pub field: String,
     /// Its value before (JSON).
-    #[schema(value_type = Object)]
     pub old: Value,
     /// Its value after (JSON).
-    #[schema(value_type = Object)]
     pub new: Value,
 }
 
@@ -224,10 +222,8 @@ pub struct SettingsChange {
     /// The settings field.
     pub field: String,
     /// Its value before (JSON).
-    #[schema(value_type = Object)]
     pub old: Value,
     /// Its value after (JSON).
-    #[schema(value_type = Object)]
     pub new: Value,
     /// Who: `admin:NAME` (web or API) or `cli`.
     pub actor: String,
