@@ -25,6 +25,7 @@ use crate::flow::{
 use crate::ids::{AssignmentId, LibraryId, StudyId};
 use crate::qc::{self, DecisionRecord, RuleOutcome};
 use crate::study::{self, MturkMode, PoolSummary, StudySettings};
+use crate::study_edit::{self, Edited, FieldChange, SettingsChange, SettingsPatch};
 use crate::train::{self, ModelSummary, TrainOptions};
 
 /// The OpenAPI document.
@@ -53,7 +54,10 @@ use crate::train::{self, ModelSummary, TrainOptions};
         admin_verify_code,
         admin_release,
         admin_models,
-        admin_train
+        admin_train,
+        admin_settings,
+        admin_edit_settings,
+        admin_settings_changes
     ),
     components(schemas(
         ErrorBody,
@@ -94,7 +98,11 @@ use crate::train::{self, ModelSummary, TrainOptions};
         Released,
         ModelSummary,
         TrainRequest,
-        TrainStarted
+        TrainStarted,
+        SettingsPatch,
+        FieldChange,
+        Edited,
+        SettingsChange
     ))
 )]
 pub struct ApiDoc;
@@ -143,6 +151,14 @@ pub fn routes() -> Router<AppState> {
         .route(
             "/api/v1/admin/studies/{study}/codes/{code}",
             get(admin_verify_code),
+        )
+        .route(
+            "/api/v1/admin/studies/{study}/settings",
+            get(admin_settings).patch(admin_edit_settings),
+        )
+        .route(
+            "/api/v1/admin/studies/{study}/settings/changes",
+            get(admin_settings_changes),
         )
 }
 
@@ -686,4 +702,53 @@ async fn admin_release(
     let released =
         flow::release_abandoned(&state.db, id, i64::from(req.older_than_minutes) * 60_000).await?;
     Ok(Json(Released { released }))
+}
+
+/// The study's current settings.
+#[utoipa::path(get, path = "/api/v1/admin/studies/{study}/settings", params(("study" = i64, Path)),
+    responses((status = 200, body = StudySettings), (status = 401, body = ErrorBody),
+              (status = 404, body = ErrorBody)))]
+async fn admin_settings(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<StudyId>,
+) -> Result<Json<StudySettings>> {
+    Ok(Json(study::load(&state.db, id).await?.settings))
+}
+
+/// Changes some of a study's settings (CSRF header required; every changed field is audited).
+/// The description, `max_training_attempts`, `reasons_probability`,
+/// `reject_at_control_errors`, the Prolific codes, `blocked_workers` and `exclude_workers_of`
+/// may change at any time and apply from the next start, HIT or completion on;
+/// `questions_per_hit`, `controls_per_hit` and `mturk_mode` only while the study has no
+/// assignment; `tuples`, `replication`, `seed` and `training_questions` never (the stored pool
+/// was built from them). A field sent with its current value is no change. Refusals are 409
+/// with the field and the reason; invalid values 400.
+#[utoipa::path(patch, path = "/api/v1/admin/studies/{study}/settings", params(("study" = i64, Path)),
+    request_body = SettingsPatch,
+    responses((status = 200, body = Edited), (status = 400, body = ErrorBody),
+              (status = 401, body = ErrorBody), (status = 403, body = ErrorBody),
+              (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
+async fn admin_edit_settings(
+    admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<StudyId>,
+    ApiJson(patch): ApiJson<SettingsPatch>,
+) -> Result<Json<Edited>> {
+    Ok(Json(
+        study_edit::edit(&state.db, id, &patch, &format!("admin:{}", admin.username)).await?,
+    ))
+}
+
+/// The study's settings changes (who, when, old and new value), newest first.
+#[utoipa::path(get, path = "/api/v1/admin/studies/{study}/settings/changes", params(("study" = i64, Path)),
+    responses((status = 200, body = Vec<SettingsChange>), (status = 401, body = ErrorBody),
+              (status = 404, body = ErrorBody)))]
+async fn admin_settings_changes(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<StudyId>,
+) -> Result<Json<Vec<SettingsChange>>> {
+    study::load(&state.db, id).await?;
+    Ok(Json(study_edit::changes(&state.db, id).await?))
 }

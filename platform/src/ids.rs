@@ -76,6 +76,11 @@ typed_id!(
 );
 
 typed_id!(
+    /// One audited change of one field of a study's settings.
+    SettingsChangeId
+);
+
+typed_id!(
     /// A style metric trained from a study's answers.
     ModelId
 );

@@ -34,6 +34,7 @@ macro_rules! outln {
 pub mod admin;
 pub mod answer_writer;
 pub mod api;
+pub mod assets;
 pub mod bench;
 pub mod cli;
 pub mod dashboard;
@@ -48,6 +49,7 @@ pub mod library;
 pub mod pages;
 pub mod qc;
 pub mod study;
+pub mod study_edit;
 pub mod train;
 
 /// Server-wide settings that are not in the database.
@@ -107,6 +109,7 @@ pub fn app(state: AppState) -> Router {
         .layer(DefaultBodyLimit::max(limit))
         .merge(upload)
         .fallback(|| async { error::AppError::NotFound("page") })
+        .layer(axum::middleware::from_fn(assets::csp))
         .layer(SetResponseHeaderLayer::overriding(
             header::REFERRER_POLICY,
             HeaderValue::from_static("no-referrer"),

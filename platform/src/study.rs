@@ -155,6 +155,16 @@ impl StudySettings {
         if self.blocked_workers.len() > 100_000 {
             return bad("blocked_workers: at most 100000".into());
         }
+        if self
+            .blocked_workers
+            .iter()
+            .any(|w| w.trim().is_empty() || w.len() > 200)
+        {
+            return bad("blocked_workers: each worker id must be 1-200 characters".into());
+        }
+        if self.exclude_workers_of.len() > 1000 {
+            return bad("exclude_workers_of: at most 1000 studies".into());
+        }
         Ok(())
     }
 }

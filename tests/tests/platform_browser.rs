@@ -12,7 +12,8 @@ use e2e::workspace_root;
 use fantoccini::{Client, ClientBuilder, Locator};
 use serde_json::json;
 
-struct Driver(Child);
+/// A running chromedriver and its port.
+struct Driver(Child, u16);
 
 impl Drop for Driver {
     fn drop(&mut self) {
@@ -51,8 +52,11 @@ async fn browser(profile: &Path) -> Option<(Driver, Client)> {
             .stderr(Stdio::null())
             .spawn()
             .expect("start chromedriver"),
+        port,
     );
     let caps = json!({
+        // The browser's console, where Chromium reports Content-Security-Policy violations.
+        "goog:loggingPrefs": {"browser": "ALL"},
         "goog:chromeOptions": {
             "binary": chromium,
             "args": [
@@ -75,6 +79,34 @@ async fn browser(profile: &Path) -> Option<(Driver, Client)> {
         }
     }
     panic!("could not open a WebDriver session");
+}
+
+/// The browser console's Content-Security-Policy violation reports since the last call
+/// (chromedriver's log endpoint; reading the log empties it).
+async fn csp_violations(c: &Client, driver: &Driver) -> Vec<String> {
+    let session = c
+        .session_id()
+        .await
+        .expect("session id")
+        .expect("a WebDriver session");
+    let (status, log) = send(
+        client()
+            .post(format!(
+                "http://127.0.0.1:{}/session/{session}/se/log",
+                driver.1
+            ))
+            .json(&json!({"type": "browser"})),
+    )
+    .await;
+    assert_eq!(status, 200, "browser log: {log}");
+    log["value"]
+        .as_array()
+        .expect("log entries")
+        .iter()
+        .filter_map(|e| e["message"].as_str())
+        .filter(|m| m.contains("Content Security Policy"))
+        .map(str::to_string)
+        .collect()
 }
 
 async fn shot(c: &Client, dir: &Path, name: &str) {
@@ -108,7 +140,7 @@ fn honest(reference: i64, left: i64, right: i64, styles: &HashMap<i64, String>) 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn worker_and_admin_flows_in_chromium() {
     let profile = tempfile::tempdir().expect("profile dir");
-    let Some((_driver, c)) = browser(profile.path()).await else {
+    let Some((driver, c)) = browser(profile.path()).await else {
         return;
     };
     let artifacts = workspace_root().join("target/e2e-artifacts/platform-browser");
@@ -223,6 +255,12 @@ async fn worker_and_admin_flows_in_chromium() {
             let pick = honest(reference, l, r, &styles);
             if n == 0 {
                 shot(&c, &artifacts, "04-question.png").await;
+                // The style sheet is a file now (the CSP allows no inline style): it applied.
+                let width = c
+                    .execute("return getComputedStyle(document.body).maxWidth;", vec![])
+                    .await
+                    .expect("script");
+                assert_eq!(width, json!("960px"), "style.css did not apply");
             }
             mark(&c).await;
             if n % 2 == 0 {
@@ -296,6 +334,8 @@ async fn worker_and_admin_flows_in_chromium() {
         .await
         .expect("text");
     assert_eq!(again, code);
+    let violations = csp_violations(&c, &driver).await;
+    assert!(violations.is_empty(), "worker pages: {violations:?}");
 
     // Admin: login, study list, dashboard with this worker.
     c.goto(&server.url("/admin/login"))
@@ -372,7 +412,42 @@ async fn worker_and_admin_flows_in_chromium() {
     let before: i64 = answers_cell().await.parse().expect("answer count");
     mark(&c).await;
     let http = client();
-    for i in 0..4 {
+    // The worker table is live too: a new worker's row appears while they answer and turns
+    // into a completed HIT with the override buttons, all without a reload.
+    let rows_before = worker_rows(&c).await;
+    assert_eq!(rows_before.len(), 1, "{rows_before:?}");
+    let token = start_worker(&http, &server.base, study, "api-0").await;
+    pass_training(&http, &server.base, &token, &styles, Behaviour::Honest).await;
+    let active = wait_rows(&c, |r| {
+        r.len() == 2 && r.iter().any(|w| w.status == "active")
+    })
+    .await;
+    let new_row = active
+        .iter()
+        .find(|w| !rows_before.iter().any(|b| b.assignment == w.assignment))
+        .expect("the new worker's row")
+        .clone();
+    assert_eq!(new_row.answered, "0/6", "{new_row:?}");
+    assert_eq!(
+        new_row.buttons, 0,
+        "no override before the HIT is completed"
+    );
+    answer_all(&http, &server.base, &token, &styles, Behaviour::Honest).await;
+    let done = wait_rows(&c, |r| {
+        r.iter()
+            .any(|w| w.assignment == new_row.assignment && w.status == "completed")
+    })
+    .await;
+    let row = done
+        .iter()
+        .find(|w| w.assignment == new_row.assignment)
+        .expect("row");
+    assert_eq!(
+        (row.answered.as_str(), row.decision.as_str(), row.buttons),
+        ("6/6", "approved", 2),
+        "{row:?}"
+    );
+    for i in 1..4 {
         let token = start_worker(&http, &server.base, study, &format!("api-{i}")).await;
         pass_training(&http, &server.base, &token, &styles, Behaviour::Honest).await;
         answer_all(&http, &server.base, &token, &styles, Behaviour::Honest).await;
@@ -396,7 +471,92 @@ async fn worker_and_admin_flows_in_chromium() {
         serde_json::Value::Bool(true),
         "updated without a reload"
     );
+    let all = wait_rows(&c, |r| {
+        r.len() == 5 && r.iter().all(|w| w.status == "completed")
+    })
+    .await;
     shot(&c, &artifacts, "09-admin-dashboard-live.png").await;
+    // The override form the script built posts with the CSRF token: reject the new worker's HIT
+    // (the page reloads with the decision), then approve it again.
+    assert!(all.iter().any(|w| w.assignment == new_row.assignment));
+    for (button, want) in [(1, "rejected"), (0, "approved")] {
+        mark(&c).await;
+        // The live refresh may replace the row between finding and clicking: then find again.
+        let css = format!(
+            "#workers tr[data-assignment=\"{}\"] form button",
+            new_row.assignment
+        );
+        let mut clicked = false;
+        for _ in 0..5 {
+            let buttons = c.find_all(Locator::Css(&css)).await.expect("buttons");
+            if buttons[button].click().await.is_ok() {
+                clicked = true;
+                break;
+            }
+        }
+        assert!(clicked, "could not click the override button");
+        wait_navigated(&c).await;
+        let rows = worker_rows(&c).await;
+        let row = rows
+            .iter()
+            .find(|w| w.assignment == new_row.assignment)
+            .expect("row after the override");
+        assert_eq!(row.decision, want, "{row:?}");
+    }
+    // Settings edited on the page (with its CSRF token) are saved, listed with who changed
+    // them, and take effect: the blocked worker cannot start.
+    c.find(Locator::Id("settings-fixed-now"))
+        .await
+        .expect("the HIT shape is fixed once assignments exist");
+    for (css, value) in [
+        ("textarea[name=description]", "Edited in the browser."),
+        ("input[name=reject_at_control_errors]", "3"),
+        ("textarea[name=blocked_workers]", "BROWSER-BLOCKED"),
+    ] {
+        let field = c.find(Locator::Css(css)).await.expect(css);
+        field.clear().await.expect("clear");
+        field.send_keys(value).await.expect("type");
+    }
+    mark(&c).await;
+    c.find(Locator::Id("save-settings"))
+        .await
+        .expect("save")
+        .click()
+        .await
+        .expect("click");
+    wait_navigated(&c).await;
+    let changes = c
+        .find(Locator::Id("settings-changes"))
+        .await
+        .expect("changes")
+        .text()
+        .await
+        .expect("text");
+    for field in ["description", "reject_at_control_errors", "blocked_workers"] {
+        assert!(
+            changes
+                .lines()
+                .any(|l| l.contains(field) && l.contains("admin:admin")),
+            "{field} not listed: {changes}"
+        );
+    }
+    let description = c
+        .find(Locator::Css("textarea[name=description]"))
+        .await
+        .expect("description")
+        .prop("value")
+        .await
+        .expect("value");
+    assert_eq!(description.as_deref(), Some("Edited in the browser."));
+    let (status, body) = send(
+        http.post(server.url(&format!("/api/v1/studies/{study}/start")))
+            .json(&json!({"source": "direct", "worker_id": "BROWSER-BLOCKED"})),
+    )
+    .await;
+    assert_eq!(status, 403, "{body}");
+    shot(&c, &artifacts, "10-admin-settings.png").await;
+    let violations = csp_violations(&c, &driver).await;
+    assert!(violations.is_empty(), "admin pages: {violations:?}");
 
     // Train the style metric from the page; the model appears with its report.
     c.find(Locator::Id("train"))
@@ -447,9 +607,91 @@ async fn worker_and_admin_flows_in_chromium() {
         .await
         .expect("text");
     assert_eq!(title, "Style metric report");
-    shot(&c, &artifacts, "10-admin-model-report.png").await;
+    shot(&c, &artifacts, "11-admin-model-report.png").await;
+    let violations = csp_violations(&c, &driver).await;
+    assert!(violations.is_empty(), "model report: {violations:?}");
+
+    // The check above can see a violation: an injected inline script is blocked and reported.
+    c.goto(&server.url(&format!("/admin/studies/{study}")))
+        .await
+        .expect("dashboard");
+    let blocked = c
+        .execute(
+            "const s = document.createElement('script'); s.textContent = 'window.__ran = true;'; \
+             document.head.appendChild(s); return window.__ran === undefined;",
+            vec![],
+        )
+        .await
+        .expect("script");
+    assert_eq!(blocked, json!(true), "the CSP let an inline script run");
+    let mut seen = Vec::new();
+    for _ in 0..50 {
+        seen = csp_violations(&c, &driver).await;
+        if !seen.is_empty() {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    assert!(
+        seen.iter().any(|m| m.contains("script-src")),
+        "the injected inline script was not reported: {seen:?}"
+    );
     let _ = saw_reasons;
     c.close().await.expect("close");
+}
+
+/// One row of the admin page's worker table, as shown.
+#[derive(Debug, Clone)]
+struct WorkerRowShown {
+    assignment: String,
+    status: String,
+    decision: String,
+    answered: String,
+    /// Override buttons in the row.
+    buttons: u64,
+}
+
+async fn worker_rows(c: &Client) -> Vec<WorkerRowShown> {
+    let rows = c
+        .execute(
+            "return Array.from(document.querySelectorAll('#workers tr[data-assignment]')).map(r => \
+             [r.dataset.assignment, r.cells[2].textContent, r.cells[3].textContent, \
+              r.cells[4].textContent, r.querySelectorAll('form button').length]);",
+            vec![],
+        )
+        .await
+        .expect("read the worker table");
+    let text = |v: &serde_json::Value| v.as_str().expect("text").to_string();
+    rows.as_array()
+        .expect("rows")
+        .iter()
+        .map(|r| WorkerRowShown {
+            assignment: text(&r[0]),
+            status: text(&r[1]),
+            decision: text(&r[2]),
+            answered: text(&r[3]),
+            buttons: r[4].as_u64().expect("count"),
+        })
+        .collect()
+}
+
+/// Waits (up to 10 s, the page refreshing every second) until the worker table satisfies
+/// `ok`, and checks that the page was not reloaded meanwhile.
+async fn wait_rows(c: &Client, ok: impl Fn(&[WorkerRowShown]) -> bool) -> Vec<WorkerRowShown> {
+    let mut rows = Vec::new();
+    for _ in 0..100 {
+        rows = worker_rows(c).await;
+        if ok(&rows) {
+            let same_document = c
+                .execute("return window.__old === true;", vec![])
+                .await
+                .expect("script");
+            assert_eq!(same_document, json!(true), "the page was reloaded");
+            return rows;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    panic!("the worker table did not update: {rows:?}");
 }
 
 /// Marks the current document; [`wait_navigated`] waits until a new one has loaded.

@@ -532,3 +532,289 @@ fn closed_stdout_is_not_a_panic() {
     );
     assert!(again.contains("admin 'admin'"), "{again}");
 }
+
+/// Inline code in an HTML page: `<style>` elements, `<script>` elements with a body (or without
+/// `src`), `style=` and `on…=` event-handler attributes, `javascript:` URLs. The CSP forbids
+/// all of them, so each would be a broken page in a browser.
+fn inline_code(html: &str) -> Vec<String> {
+    let lower = html.to_ascii_lowercase();
+    let mut found = Vec::new();
+    if lower.contains("javascript:") {
+        found.push("a javascript: URL".to_string());
+    }
+    let mut rest = lower.as_str();
+    while let Some(open) = rest.find('<') {
+        let after = &rest[open + 1..];
+        let Some(close) = after.find('>') else { break };
+        let tag = &after[..close];
+        let name: String = tag
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric())
+            .collect();
+        let attrs: Vec<&str> = tag.split_whitespace().skip(1).collect();
+        if name == "style" {
+            found.push("a <style> element".into());
+        }
+        if name == "script"
+            && (!attrs.iter().any(|a| a.starts_with("src="))
+                || !after[close + 1..].starts_with("</script>"))
+        {
+            found.push(format!("an inline script <{tag}>"));
+        }
+        for a in attrs {
+            let attr_name = a.split('=').next().unwrap_or_default();
+            let handler = attr_name.len() > 2
+                && attr_name.starts_with("on")
+                && attr_name.chars().all(|c| c.is_ascii_lowercase());
+            if attr_name == "style" || (handler && a.contains('=')) {
+                found.push(format!("attribute {a} in <{tag}>"));
+            }
+        }
+        rest = &after[close + 1..];
+    }
+    found
+}
+
+#[test]
+fn the_inline_code_scanner_finds_inline_code() {
+    assert!(
+        inline_code(r#"<p class="x">on=fine</p><script src="/a.js" defer></script>"#).is_empty()
+    );
+    for bad in [
+        "<script>alert(1)</script>",
+        r#"<script src="/a.js">alert(1)</script>"#,
+        "<style>p{}</style>",
+        r#"<span style="width: 3px"></span>"#,
+        r#"<body onload="go()">"#,
+        r#"<a href="javascript:go()">"#,
+    ] {
+        assert!(!inline_code(bad).is_empty(), "{bad}");
+    }
+}
+
+/// Checks one HTML response's security headers and inline code; returns its body.
+async fn check_page(kind: &str, admin: bool, resp: reqwest::Response) -> String {
+    let h = resp.headers().clone();
+    let header = |name: &str| {
+        h.get(name)
+            .and_then(|v| v.to_str().ok())
+            .unwrap_or_else(|| panic!("{kind}: no {name} header"))
+            .to_string()
+    };
+    assert!(header("content-type").starts_with("text/html"), "{kind}");
+    let csp = header("content-security-policy");
+    for directive in [
+        "default-src 'none'",
+        "script-src 'self'",
+        "style-src 'self'",
+        "img-src 'self' data:",
+        "connect-src 'self'",
+        "base-uri 'none'",
+    ] {
+        assert!(
+            csp.contains(directive),
+            "{kind}: {directive} missing in {csp}"
+        );
+    }
+    assert!(!csp.contains("unsafe"), "{kind}: {csp}");
+    if admin {
+        assert!(csp.contains("frame-ancestors 'none'"), "{kind}: {csp}");
+        assert!(csp.contains("form-action 'self';"), "{kind}: {csp}");
+    } else {
+        assert!(
+            csp.contains("frame-ancestors https://*.mturk.com"),
+            "{kind}: {csp}"
+        );
+        for host in ["https://www.mturk.com", "https://workersandbox.mturk.com"] {
+            assert!(
+                csp.contains(host),
+                "{kind}: form-action must allow {host}: {csp}"
+            );
+        }
+    }
+    assert_eq!(header("x-content-type-options"), "nosniff", "{kind}");
+    assert_eq!(header("referrer-policy"), "no-referrer", "{kind}");
+    let html = resp.text().await.expect("html");
+    let inline = inline_code(&html);
+    assert!(inline.is_empty(), "{kind}: {inline:?}\n{html}");
+    html
+}
+
+/// Every kind of HTML page (worker: start, training, question, reasons, done, error; admin:
+/// login, index, study, error) carries the strict Content-Security-Policy (worker pages may be
+/// framed by MTurk and post to it, admin pages neither), `nosniff` and `no-referrer` (worker URLs
+/// carry the assignment token), and contains no inline code the policy would block. The
+/// scripts and the style sheet they load are served with their types and a cache header.
+#[tokio::test]
+async fn every_html_page_has_a_strict_csp_and_no_inline_code() {
+    let f =
+        fixture(json!({"reasons_probability": 1.0, "questions_per_hit": 4, "controls_per_hit": 1}))
+            .await;
+    let (c, base, study) = (&f.c, &f.server.base, f.study);
+    let styles = item_styles(&f._db.url).await;
+    let mut assets = std::collections::BTreeSet::new();
+    let mut collect = |html: &str| {
+        for marker in ["src=\"/static/", "href=\"/static/"] {
+            for part in html.split(marker).skip(1) {
+                let path = part.split('"').next().unwrap_or_default();
+                assets.insert(format!("/static/{path}"));
+            }
+        }
+    };
+
+    // An MTurk sandbox worker, through the HTML forms.
+    let start = format!(
+        "{base}/s/{study}?assignmentId=ASG9&hitId=HIT9&workerId=W9&turkSubmitTo=https%3A%2F%2Fworkersandbox.mturk.com"
+    );
+    let html = check_page("start", false, c.get(&start).send().await.expect("start")).await;
+    assert!(html.contains("id=\"start-form\""), "{html}");
+    collect(&html);
+    let resp = c
+        .post(format!("{base}/s/{study}/start"))
+        .form(&[
+            ("source", "mturk"),
+            ("worker_id", "W9"),
+            ("assignment_id", "ASG9"),
+            ("hit_id", "HIT9"),
+            ("turk_submit_to", "https://workersandbox.mturk.com"),
+        ])
+        .send()
+        .await
+        .expect("start form");
+    assert_eq!(resp.status().as_u16(), 303);
+    let page = format!(
+        "{base}{}",
+        resp.headers()["location"].to_str().expect("ascii")
+    );
+    let token = page.rsplit('/').next().expect("token").to_string();
+    let get = || async { c.get(&page).send().await.expect("assignment page") };
+    let html = check_page("training", false, get().await).await;
+    assert!(html.contains("id=\"training-form\""), "{html}");
+    pass_training(c, base, &token, &styles, Behaviour::Honest).await;
+    let html = check_page("question", false, get().await).await;
+    assert!(html.contains("id=\"answer-form\""), "{html}");
+    collect(&html);
+    let (_, st) = send(c.get(format!("{base}/api/v1/assignments/{token}"))).await;
+    let q = &st["question"];
+    let (status, ack) = send(
+        c.post(format!("{base}/api/v1/assignments/{token}/answers"))
+            .json(&json!({"position": q["position"], "choice": choose(q, &styles, Behaviour::Honest)})),
+    )
+    .await;
+    assert_eq!(status, 200, "{ack}");
+    let html = check_page("reasons", false, get().await).await;
+    assert!(html.contains("id=\"reasons-form\""), "{html}");
+    let (status, body) = send(
+        c.post(format!("{base}/api/v1/assignments/{token}/reasons"))
+            .json(&json!({"position": q["position"], "reasons": [], "text": null})),
+    )
+    .await;
+    assert_eq!(status, 200, "{body}");
+    answer_all(c, base, &token, &styles, Behaviour::Honest).await;
+    let html = check_page("done", false, get().await).await;
+    assert!(
+        html.contains("action=\"https://workersandbox.mturk.com/mturk/externalSubmit\""),
+        "{html}"
+    );
+    let html = check_page(
+        "worker error",
+        false,
+        c.get(format!("{base}/s/{study}"))
+            .send()
+            .await
+            .expect("error page"),
+    )
+    .await;
+    assert!(html.contains("no participant id"), "{html}");
+    check_page(
+        "home",
+        false,
+        c.get(format!("{base}/")).send().await.expect("home"),
+    )
+    .await;
+
+    // Admin pages.
+    check_page(
+        "admin login",
+        true,
+        c.get(format!("{base}/admin/login"))
+            .send()
+            .await
+            .expect("login"),
+    )
+    .await;
+    let (cookie, _) = admin_login(c, base).await;
+    let admin_get = |path: String| {
+        c.get(format!("{base}{path}"))
+            .header("cookie", &cookie)
+            .send()
+    };
+    let html = check_page(
+        "admin index",
+        true,
+        admin_get("/admin".into()).await.expect("index"),
+    )
+    .await;
+    assert!(html.contains("id=\"studies\""), "{html}");
+    let html = check_page(
+        "admin study",
+        true,
+        admin_get(format!("/admin/studies/{study}"))
+            .await
+            .expect("study"),
+    )
+    .await;
+    assert!(html.contains(&format!("data-study=\"{study}\"")), "{html}");
+    assert!(
+        html.contains("<meter"),
+        "the histogram is drawn with <meter>: {html}"
+    );
+    collect(&html);
+    check_page(
+        "admin error",
+        true,
+        admin_get("/admin/studies/999999".into())
+            .await
+            .expect("404"),
+    )
+    .await;
+
+    // The files those pages load.
+    let names: Vec<&str> = assets
+        .iter()
+        .map(|a| {
+            a.trim_start_matches("/static/")
+                .split('?')
+                .next()
+                .unwrap_or_default()
+        })
+        .collect();
+    for want in ["style.css", "question.js", "dashboard.js"] {
+        assert!(names.contains(&want), "no page loads {want}: {assets:?}");
+    }
+    for path in &assets {
+        assert!(path.contains("?v="), "{path} is not versioned");
+        let resp = c.get(format!("{base}{path}")).send().await.expect("asset");
+        assert_eq!(resp.status().as_u16(), 200, "{path}");
+        let h = resp.headers();
+        let want = if path.contains(".css") {
+            "text/css"
+        } else {
+            "text/javascript"
+        };
+        assert!(
+            h["content-type"].to_str().expect("ascii").starts_with(want),
+            "{path}"
+        );
+        assert!(
+            h["cache-control"]
+                .to_str()
+                .expect("ascii")
+                .contains("max-age="),
+            "{path}"
+        );
+        assert_eq!(h["x-content-type-options"], "nosniff");
+    }
+    let (status, _) = send(c.get(format!("{base}/static/nope.js"))).await;
+    assert_eq!(status, 404);
+}
