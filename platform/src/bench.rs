@@ -477,8 +477,9 @@ pub async fn run(args: BenchArgs) -> Result<()> {
     )?;
     outln!("start p99: HIT starts (allocations) of the phase, not counted as answers")?;
     outln!(
-        "cpu µs: CPU time of this process (server + clients) per answer or /healthz request; \
-         cpu ratio = healthz cpu / answer cpu, the rate ratio of a CPU-bound machine"
+        "cpu µs: CPU time of this process (server + clients; not PostgreSQL's own processes) \
+         per answer or /healthz request; cpu r. = healthz cpu / answer cpu, the rate ratio on \
+         a CPU-bound machine, which other load does not move"
     )?;
     outln!(
         "{:>8} {:<14} | {:>10} {:>8} {:>8} {:>6} {:>9} {:>6} | {:>10} {:>6} | {:>6} {:>6}",
