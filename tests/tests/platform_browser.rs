@@ -679,7 +679,8 @@ async fn worker_rows(c: &Client) -> Vec<WorkerRowShown> {
 /// `ok`, and checks that the page was not reloaded meanwhile.
 async fn wait_rows(c: &Client, ok: impl Fn(&[WorkerRowShown]) -> bool) -> Vec<WorkerRowShown> {
     let mut rows = Vec::new();
-    for _ in 0..100 {
+    // Up to 30 s: the page refreshes every second, but CI runs the other tests beside it.
+    for _ in 0..300 {
         rows = worker_rows(c).await;
         if ok(&rows) {
             let same_document = c
@@ -702,7 +703,8 @@ async fn mark(c: &Client) {
 }
 
 async fn wait_navigated(c: &Client) {
-    for _ in 0..200 {
+    // Up to 20 s (a page load is milliseconds on an idle machine; CI shares it with the rest).
+    for _ in 0..800 {
         let done = c
             .execute(
                 "return window.__old === undefined && document.readyState === 'complete';",
