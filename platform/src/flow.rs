@@ -911,7 +911,7 @@ struct SlotClaim {
 
 impl SlotClaim {
     /// SQLite (`BEGIN IMMEDIATE` already serialises writers): one free slot of each of the
-    /// next tuples per statement — two statements per HIT instead of one per question, so the
+    /// next tuples per read and claim — two of them per HIT instead of one per question, so the
     /// single writer, and the answers queued behind it, are free sooner. Returns (slot, tuple).
     async fn many_per_statement(&self, tx: &mut AnyConnection) -> Result<Vec<(i64, i64)>> {
         let mut claimed = self
@@ -935,6 +935,11 @@ impl SlotClaim {
 
     /// One free slot of each of the first `limit` tuples with `lower < seq < upper` (SQLite).
     /// Returns (slot, tuple, seq).
+    ///
+    /// Read as one JSON row, then claimed by id, instead of one `UPDATE … RETURNING`: sqlx
+    /// hands each result row from the connection's thread to the (single) writer through a
+    /// channel, and the ~45 rows of a HIT were as many hand-offs while every writer waited.
+    /// Nothing can take the slots in between: the caller holds SQLite's write lock.
     async fn claim_range(
         &self,
         tx: &mut AnyConnection,
@@ -942,25 +947,46 @@ impl SlotClaim {
         upper: i64,
         limit: usize,
     ) -> Result<Vec<(i64, i64, i64)>> {
-        let query = sqlx::query(
+        let row = sqlx::query(
+            "SELECT json_group_array(json_array(id, tuple_id, seq)) AS rows FROM \
+               (SELECT MIN(s.id) AS id, s.tuple_id, s.seq FROM slots s \
+                WHERE s.study_id = $1 AND s.assignment_id IS NULL AND s.seq > $2 AND s.seq < $3 \
+                GROUP BY s.seq ORDER BY s.seq LIMIT $4)",
+        )
+        .bind(self.study.0)
+        .bind(lower)
+        .bind(upper)
+        .bind(limit as i64)
+        .fetch_one(&mut *tx)
+        .await?;
+        let rows: String = row.try_get("rows")?;
+        let free: Vec<(i64, i64, i64)> = serde_json::from_str(&rows).map_err(AppError::internal)?;
+        if free.is_empty() {
+            return Ok(free);
+        }
+        let ids: Vec<i64> = free.iter().map(|&(slot, _, _)| slot).collect();
+        let done = sqlx::query(
             "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
-             WHERE assignment_id IS NULL AND id IN (SELECT MIN(s.id) FROM slots s \
-               WHERE s.study_id = $4 AND s.assignment_id IS NULL AND s.seq > $5 AND s.seq < $6 \
-               GROUP BY s.seq ORDER BY s.seq LIMIT $7) \
-             RETURNING id, tuple_id, seq",
-        );
-        let rows = self
-            .bind_claim(query, lower, upper)
-            .bind(limit as i64)
-            .fetch_all(&mut *tx)
-            .await?;
-        rows.iter()
-            .map(|r| Ok((r.try_get("id")?, r.try_get("tuple_id")?, r.try_get("seq")?)))
-            .collect()
+             WHERE assignment_id IS NULL AND id IN (SELECT value FROM json_each($4))",
+        )
+        .bind(self.assignment.0)
+        .bind(self.worker.0)
+        .bind(self.now)
+        .bind(serde_json::to_string(&ids).map_err(AppError::internal)?)
+        .execute(&mut *tx)
+        .await?;
+        if done.rows_affected() != free.len() as u64 {
+            return Err(AppError::Internal(format!(
+                "claimed {} of {} slots read as free",
+                done.rows_affected(),
+                free.len()
+            )));
+        }
+        Ok(free)
     }
 
-    /// Binds `$1..$6` of both claim statements: who claims, when, in which study, and the
-    /// open `seq` range.
+    /// Binds `$1..$6` of the PostgreSQL claim statement: who claims, when, in which study, and
+    /// the open `seq` range.
     fn bind_claim<'q>(
         &self,
         query: sqlx::query::Query<'q, Any, sqlx::any::AnyArguments>,
