@@ -61,12 +61,16 @@ pub struct Measurement {
     pub cpu_us: f64,
 }
 
-/// CPU seconds (user + system) this process has used so far, from `/proc/self/stat` (Linux
-/// reports them in USER_HZ = 1/100 s).
+/// CPU seconds (user + system) this process has used so far, from `/proc/self/stat`.
 fn process_cpu_seconds() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the parenthesised command name, which may itself contain spaces.
-    let rest = &stat[stat.rfind(')')? + 2..];
+    cpu_seconds_of_stat(&std::fs::read_to_string("/proc/self/stat").ok()?)
+}
+
+/// utime + stime of a `/proc/PID/stat` line, in seconds (Linux reports them in USER_HZ =
+/// 1/100 s).
+fn cpu_seconds_of_stat(stat: &str) -> Option<f64> {
+    // Fields after the parenthesised command name, which may itself contain spaces and ')'.
+    let rest = stat.get(stat.rfind(')')? + 2..)?;
     let fields: Vec<&str> = rest.split_whitespace().collect();
     // utime and stime are fields 14 and 15 of the whole line, 12 and 13 after the name.
     let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
@@ -136,7 +140,7 @@ pub(crate) async fn prepare(db: &Db, workers: usize, seconds: u64) -> Result<Stu
         }
     }
     // Two HITs for every worker plus headroom for ~12,000 answers/s (the SQLite closed loop
-    // reaches ~8,000 on 2 cores): running out of free slots mid-phase would turn answers into
+    // reaches ~10,000 on 2 cores): running out of free slots mid-phase would turn answers into
     // refused starts and flatter the figures.
     let tuples = (workers * 90 + (seconds as usize) * 12_000).min(400_000) as u32;
     let settings = StudySettings {
@@ -515,6 +519,24 @@ pub async fn run(args: BenchArgs) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// utime and stime are found after a command name with spaces and parentheses; a cut or
+    /// garbled line gives `None`; this process's clock reads and never runs backwards.
+    #[test]
+    fn cpu_time_from_proc_stat() {
+        let line = "4242 (my (odd) cmd) S 1 4242 4242 0 -1 4194560 1200 0 0 0 \
+                    250 37 0 0 20 0 9 0 100 1000000 500 18446744073709551615";
+        assert_eq!(cpu_seconds_of_stat(line), Some(2.87));
+        assert_eq!(cpu_seconds_of_stat("4242 (cmd) S 1 2 3"), None);
+        assert_eq!(cpu_seconds_of_stat("no parenthesis"), None);
+        assert_eq!(cpu_seconds_of_stat("4242 (cmd)"), None);
+        let a = process_cpu_seconds().expect("/proc/self/stat");
+        let b = process_cpu_seconds().expect("/proc/self/stat");
+        assert!(a >= 0.0 && b >= a, "{a} then {b}");
+        assert!(cpu_per_request(Some(a), 0.0).is_nan());
+        assert!(cpu_per_request(None, 10.0).is_nan());
+        assert!(cpu_per_request(Some(b), 10.0) >= 0.0);
+    }
 
     #[test]
     fn percentiles() {
