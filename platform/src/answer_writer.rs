@@ -35,7 +35,7 @@ use std::pin::Pin;
 use sqlx::{AnyConnection, AnyPool, Connection, Row};
 use tokio::sync::{mpsc, oneshot};
 
-use crate::db::{Backend, now_ms};
+use crate::db::{Backend, json_array_row, now_ms};
 use crate::error::{AppError, Result};
 use crate::flow::{AnswerTarget, TargetQuestion};
 use crate::ids::{AssignmentId, StudyId};
@@ -381,17 +381,6 @@ const SUBMIT_NEXT: &str = "SELECT json_group_array(json_array(a, p)) AS rows FRO
       WHERE assignment_id IN (SELECT value FROM json_each($1)) AND choice IS NULL \
       GROUP BY assignment_id)";
 
-/// The JSON array in the `rows` column of a one-row aggregate.
-async fn json_rows<T: serde::de::DeserializeOwned>(
-    conn: &mut AnyConnection,
-    sql: &'static str,
-    json: String,
-) -> Result<Vec<T>> {
-    let row = sqlx::query(sql).bind(json).fetch_one(&mut *conn).await?;
-    let rows: String = row.try_get("rows")?;
-    serde_json::from_str(&rows).map_err(AppError::internal)
-}
-
 /// What one submitted answer resolved to before the `UPDATE`.
 enum Plan {
     /// Store it (`b` or `c`).
@@ -417,7 +406,7 @@ async fn submit_batch(
         .map(|(s, _)| (s.token.as_str(), s.position))
         .collect();
     let keys = serde_json::to_string(&keys).map_err(AppError::internal)?;
-    let rows: Vec<ReadRow> = json_rows(conn, SUBMIT_READ, keys).await?;
+    let rows: Vec<ReadRow> = json_array_row(conn, sqlx::query(SUBMIT_READ).bind(keys)).await?;
     let mut targets: Vec<Option<AnswerTarget>> = (0..submits.len()).map(|_| None).collect();
     for (k, assignment, study, status, position, choice, ask_reasons, b, c) in rows {
         let slot = targets
@@ -491,7 +480,9 @@ async fn submit_batch(
     if !next.is_empty() {
         let ids: Vec<i64> = next.keys().copied().collect();
         let json = serde_json::to_string(&ids).map_err(AppError::internal)?;
-        for (a, p) in json_rows::<(i64, i64)>(conn, SUBMIT_NEXT, json).await? {
+        for (a, p) in
+            json_array_row::<(i64, i64)>(conn, sqlx::query(SUBMIT_NEXT).bind(json)).await?
+        {
             next.insert(a, Some(p));
         }
     }

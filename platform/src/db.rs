@@ -193,6 +193,18 @@ impl Db {
     }
 }
 
+/// The JSON array in the `rows` column of a one-row aggregate (`json_group_array`), decoded.
+/// A SQLite read that returns many rows costs one hand-off between the connection's thread and
+/// the caller per row in sqlx; aggregated, it costs one.
+pub(crate) async fn json_array_row<T: serde::de::DeserializeOwned>(
+    conn: &mut AnyConnection,
+    query: sqlx::query::Query<'_, Any, sqlx::any::AnyArguments>,
+) -> Result<Vec<T>> {
+    let row = query.fetch_one(&mut *conn).await?;
+    let rows: String = sqlx::Row::try_get(&row, "rows")?;
+    serde_json::from_str(&rows).map_err(AppError::internal)
+}
+
 /// The URL without its password, for messages.
 pub fn redact(url: &str) -> String {
     match (url.find("://"), url.rfind('@')) {

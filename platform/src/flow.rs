@@ -947,20 +947,21 @@ impl SlotClaim {
         upper: i64,
         limit: usize,
     ) -> Result<Vec<(i64, i64, i64)>> {
-        let row = sqlx::query(
-            "SELECT json_group_array(json_array(id, tuple_id, seq)) AS rows FROM \
-               (SELECT MIN(s.id) AS id, s.tuple_id, s.seq FROM slots s \
-                WHERE s.study_id = $1 AND s.assignment_id IS NULL AND s.seq > $2 AND s.seq < $3 \
-                GROUP BY s.seq ORDER BY s.seq LIMIT $4)",
+        let free: Vec<(i64, i64, i64)> = crate::db::json_array_row(
+            tx,
+            sqlx::query(
+                "SELECT json_group_array(json_array(id, tuple_id, seq)) AS rows FROM \
+                   (SELECT MIN(s.id) AS id, s.tuple_id, s.seq FROM slots s \
+                    WHERE s.study_id = $1 AND s.assignment_id IS NULL AND s.seq > $2 \
+                      AND s.seq < $3 \
+                    GROUP BY s.seq ORDER BY s.seq LIMIT $4)",
+            )
+            .bind(self.study.0)
+            .bind(lower)
+            .bind(upper)
+            .bind(limit as i64),
         )
-        .bind(self.study.0)
-        .bind(lower)
-        .bind(upper)
-        .bind(limit as i64)
-        .fetch_one(&mut *tx)
         .await?;
-        let rows: String = row.try_get("rows")?;
-        let free: Vec<(i64, i64, i64)> = serde_json::from_str(&rows).map_err(AppError::internal)?;
         if free.is_empty() {
             return Ok(free);
         }
