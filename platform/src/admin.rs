@@ -62,7 +62,7 @@ pub async fn create_admin(db: &Db, username: &str, password: &str) -> Result<Adm
     .bind(username)
     .bind(hash)
     .bind(now_ms())
-    .execute(&db.writer)
+    .execute(&mut *db.write_conn().await?)
     .await?;
     let row = sqlx::query("SELECT id FROM admins WHERE username = $1")
         .bind(username)
@@ -107,12 +107,12 @@ async fn check_throttle(db: &Db, username: &str) -> Result<()> {
 async fn record_failure(db: &Db, username: &str) -> Result<()> {
     sqlx::query("DELETE FROM login_failures WHERE at < $1")
         .bind(now_ms() - LOGIN_WINDOW_MS)
-        .execute(&db.writer)
+        .execute(&mut *db.write_conn().await?)
         .await?;
     sqlx::query("INSERT INTO login_failures (username, at) VALUES ($1, $2)")
         .bind(username)
         .bind(now_ms())
-        .execute(&db.writer)
+        .execute(&mut *db.write_conn().await?)
         .await?;
     Ok(())
 }
@@ -120,7 +120,7 @@ async fn record_failure(db: &Db, username: &str) -> Result<()> {
 async fn clear_failures(db: &Db, username: &str) -> Result<()> {
     sqlx::query("DELETE FROM login_failures WHERE username = $1")
         .bind(username)
-        .execute(&db.writer)
+        .execute(&mut *db.write_conn().await?)
         .await?;
     Ok(())
 }
@@ -165,7 +165,7 @@ pub async fn login(db: &Db, username: &str, password: &str) -> Result<Option<(St
     let csrf = random_token();
     sqlx::query("DELETE FROM sessions WHERE expires_at < $1")
         .bind(now_ms())
-        .execute(&db.writer)
+        .execute(&mut *db.write_conn().await?)
         .await?;
     sqlx::query(
         "INSERT INTO sessions (token_hash, admin_id, csrf, expires_at) VALUES ($1, $2, $3, $4)",
@@ -174,7 +174,7 @@ pub async fn login(db: &Db, username: &str, password: &str) -> Result<Option<(St
     .bind(id)
     .bind(&csrf)
     .bind(now_ms() + SESSION_MS)
-    .execute(&db.writer)
+    .execute(&mut *db.write_conn().await?)
     .await?;
     Ok(Some((token, csrf)))
 }
@@ -183,7 +183,7 @@ pub async fn login(db: &Db, username: &str, password: &str) -> Result<Option<(St
 pub async fn logout(db: &Db, token: &str) -> Result<()> {
     sqlx::query("DELETE FROM sessions WHERE token_hash = $1")
         .bind(hash_token(token))
-        .execute(&db.writer)
+        .execute(&mut *db.write_conn().await?)
         .await?;
     Ok(())
 }

@@ -12,6 +12,7 @@ use std::sync::Arc;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use sqlx::any::{AnyPoolOptions, AnyRow};
+use sqlx::pool::PoolConnection;
 use sqlx::{Any, AnyConnection, AnyPool, Executor, Transaction};
 use tokio::sync::{Mutex, OwnedMutexGuard};
 
@@ -32,17 +33,18 @@ pub enum Backend {
 pub struct Db {
     /// The connection pool for reads (and, on PostgreSQL, everything).
     pub pool: AnyPool,
-    /// The pool for writes. On SQLite it has one connection, so writers queue in the pool
-    /// (FIFO, without SQLite's sleeping busy handler) while readers proceed in parallel (WAL);
-    /// on PostgreSQL it is the same pool as `pool`. A performance measure only: correctness
-    /// rests on the transactions, not on this queue.
+    /// The pool for writes through sqlx ([`Db::begin_write`], [`Db::write_conn`]). On SQLite
+    /// it has one connection, used under the process's write turn, which the answer writer's
+    /// own connection takes too, so writers queue (FIFO, without SQLite's sleeping busy
+    /// handler) while readers proceed in parallel (WAL); on PostgreSQL it is the same pool as
+    /// `pool`. A performance measure only: correctness rests on the transactions.
     pub writer: AnyPool,
     /// The backend behind it.
     pub backend: Backend,
     /// Group commit of answers through `writer` (see [`crate::answer_writer`]).
     pub answers: AnswerWriter,
-    /// SQLite only: one turn for all write transactions other than the answer writer's (see
-    /// [`Db::begin_write`]).
+    /// SQLite only: the process's write turn, taken by the answer writer for each batch and
+    /// by every sqlx write (see [`Db::begin_write`]).
     turns: Option<Arc<Mutex<()>>>,
 }
 
@@ -78,6 +80,35 @@ impl DerefMut for WriteTx {
     fn deref_mut(&mut self) -> &mut AnyConnection {
         &mut self.tx
     }
+}
+
+/// The writer connection from [`Db::write_conn`]; use it as `&mut *conn`.
+pub struct WriteConn {
+    conn: PoolConnection<Any>,
+    /// This process's turn at SQLite's writer, released after the connection is back in the
+    /// pool (fields drop in order).
+    _turn: Option<OwnedMutexGuard<()>>,
+}
+
+impl Deref for WriteConn {
+    type Target = AnyConnection;
+    fn deref(&self) -> &AnyConnection {
+        &self.conn
+    }
+}
+
+impl DerefMut for WriteConn {
+    fn deref_mut(&mut self) -> &mut AnyConnection {
+        &mut self.conn
+    }
+}
+
+/// The database file of a `sqlite:` URL, as SQLite would open it (the answer writer opens its
+/// own connection to it).
+fn sqlite_file(url: &str) -> Result<std::path::PathBuf> {
+    use std::str::FromStr;
+    let options = sqlx::sqlite::SqliteConnectOptions::from_str(url)?;
+    Ok(options.get_filename().to_path_buf())
 }
 
 /// Migrations embedded at build time.
@@ -139,12 +170,19 @@ impl Db {
         };
         let pool = options(max_connections).connect(&url).await?;
         MIGRATOR.run(&pool).await?;
-        let writer = match backend {
-            Backend::Sqlite => options(1).connect(&url).await?,
-            Backend::Postgres => pool.clone(),
+        let (writer, answers, turns) = match backend {
+            Backend::Sqlite => {
+                let turns = Arc::new(Mutex::new(()));
+                let file = sqlite_file(&url)?;
+                let answers = AnswerWriter::start_sqlite(&file, turns.clone())?;
+                (options(1).connect(&url).await?, answers, Some(turns))
+            }
+            Backend::Postgres => (
+                pool.clone(),
+                AnswerWriter::start_postgres(pool.clone())?,
+                None,
+            ),
         };
-        let answers = AnswerWriter::start(writer.clone(), backend)?;
-        let turns = (backend == Backend::Sqlite).then(|| Arc::new(Mutex::new(())));
         Ok(Self {
             pool,
             writer,
@@ -156,29 +194,16 @@ impl Db {
 
     /// Begins a write transaction (`BEGIN IMMEDIATE` on SQLite).
     ///
-    /// On SQLite these transactions (training submissions, admin writes; HIT allocations and
-    /// completions are jobs of the answer writer instead, see [`crate::answer_writer`]) first
-    /// take one shared turn, so at most one of them waits at the single-connection `writer`
-    /// pool next to the answer writer. The pool serves waiters in order, so the answer writer's
-    /// batches alternate with them one by one: an answer waits for at most one allocation,
-    /// not for a whole wave of HITs started together. A latency measure only: SQLite's own
-    /// lock still serialises every writer, across processes too.
+    /// On SQLite these transactions (training submissions, admin writes; answers, HIT
+    /// allocations and completions go through the answer writer instead, see
+    /// [`crate::answer_writer`]) first take the process's write turn, which the answer writer
+    /// takes for each of its batches too. The turn serves waiters in order, so the answer
+    /// writer's batches alternate with the other writes one by one, and nobody sleeps in
+    /// SQLite's busy handler (which polls at growing intervals and may lose to a writer that
+    /// comes back at once). A latency measure only: SQLite's own lock still serialises every
+    /// writer, across processes too.
     pub async fn begin_write(&self) -> Result<WriteTx> {
-        let turn = match &self.turns {
-            Some(turns) => Some(turns.clone().lock_owned().await),
-            None => None,
-        };
-        self.begin(turn).await
-    }
-
-    /// Like [`Db::begin_write`] but without waiting for the turn: for the short write that
-    /// completes a HIT inside an answer request, which must not queue behind HIT allocations
-    /// (it still waits at the `writer` pool, behind at most the answer writer and one turn).
-    pub async fn begin_write_unqueued(&self) -> Result<WriteTx> {
-        self.begin(None).await
-    }
-
-    async fn begin(&self, turn: Option<OwnedMutexGuard<()>>) -> Result<WriteTx> {
+        let turn = self.turn().await;
         let tx = match self.backend {
             Backend::Sqlite => self.writer.begin_with("BEGIN IMMEDIATE").await?,
             Backend::Postgres => self.writer.begin().await?,
@@ -186,23 +211,27 @@ impl Db {
         Ok(WriteTx { tx, _turn: turn })
     }
 
+    /// The writer connection for single-statement writes outside a transaction, under the
+    /// write turn (see [`Db::begin_write`]) until it is dropped.
+    pub async fn write_conn(&self) -> Result<WriteConn> {
+        let turn = self.turn().await;
+        let conn = self.writer.acquire().await?;
+        Ok(WriteConn { conn, _turn: turn })
+    }
+
+    /// SQLite: the process's write turn, in arrival order; PostgreSQL: none.
+    async fn turn(&self) -> Option<OwnedMutexGuard<()>> {
+        match &self.turns {
+            Some(turns) => Some(turns.clone().lock_owned().await),
+            None => None,
+        }
+    }
+
     /// `SELECT 1`: is the database reachable?
     pub async fn ping(&self) -> Result<()> {
         sqlx::query("SELECT 1").execute(&self.pool).await?;
         Ok(())
     }
-}
-
-/// The JSON array in the `rows` column of a one-row aggregate (`json_group_array`), decoded.
-/// A SQLite read that returns many rows costs one hand-off between the connection's thread and
-/// the caller per row in sqlx; aggregated, it costs one.
-pub(crate) async fn json_array_row<T: serde::de::DeserializeOwned>(
-    conn: &mut AnyConnection,
-    query: sqlx::query::Query<'_, Any, sqlx::any::AnyArguments>,
-) -> Result<Vec<T>> {
-    let row = query.fetch_one(&mut *conn).await?;
-    let rows: String = sqlx::Row::try_get(&row, "rows")?;
-    serde_json::from_str(&rows).map_err(AppError::internal)
 }
 
 /// The URL without its password, for messages.

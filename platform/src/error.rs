@@ -35,6 +35,10 @@ pub enum AppError {
     /// A database failure; details are logged, not shown.
     #[error("database error: {0}")]
     Database(#[from] sqlx::Error),
+    /// A failure of the SQLite connection the answer writer drives directly
+    /// ([`crate::sqlite_direct`]); details are logged, not shown.
+    #[error("database error: {0}")]
+    Sqlite(#[from] rusqlite::Error),
     /// A migration failure.
     #[error("migration error: {0}")]
     Migrate(#[from] sqlx::migrate::MigrateError),
@@ -55,6 +59,15 @@ impl AppError {
         Self::Internal(e.to_string())
     }
 
+    /// Another process held SQLite's write lock beyond the busy timeout: retrying may work.
+    fn is_sqlite_busy(&self) -> bool {
+        matches!(
+            self,
+            Self::Sqlite(rusqlite::Error::SqliteFailure(e, _))
+                if e.code == rusqlite::ErrorCode::DatabaseBusy
+        )
+    }
+
     /// The HTTP status this error maps to.
     pub fn status(&self) -> StatusCode {
         match self {
@@ -67,9 +80,12 @@ impl AppError {
             Self::TooManyRequests(_) => StatusCode::TOO_MANY_REQUESTS,
             Self::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
             Self::Database(sqlx::Error::PoolTimedOut) => StatusCode::SERVICE_UNAVAILABLE,
-            Self::Database(_) | Self::Migrate(_) | Self::Internal(_) | Self::Stdout(_) => {
-                StatusCode::INTERNAL_SERVER_ERROR
-            }
+            e if e.is_sqlite_busy() => StatusCode::SERVICE_UNAVAILABLE,
+            Self::Database(_)
+            | Self::Sqlite(_)
+            | Self::Migrate(_)
+            | Self::Internal(_)
+            | Self::Stdout(_) => StatusCode::INTERNAL_SERVER_ERROR,
         }
     }
 
@@ -77,9 +93,12 @@ impl AppError {
     pub fn public_message(&self) -> String {
         match self {
             Self::Database(sqlx::Error::PoolTimedOut) => "server busy, retry".into(),
-            Self::Database(_) | Self::Migrate(_) | Self::Internal(_) | Self::Stdout(_) => {
-                "internal error".into()
-            }
+            e if e.is_sqlite_busy() => "server busy, retry".into(),
+            Self::Database(_)
+            | Self::Sqlite(_)
+            | Self::Migrate(_)
+            | Self::Internal(_)
+            | Self::Stdout(_) => "internal error".into(),
             other => other.to_string(),
         }
     }

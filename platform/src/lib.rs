@@ -48,6 +48,7 @@ pub mod ids;
 pub mod library;
 pub mod pages;
 pub mod qc;
+pub mod sqlite_direct;
 pub mod study;
 pub mod study_edit;
 pub mod train;

@@ -53,7 +53,7 @@ pub async fn ensure_library(db: &Db, name: &str) -> Result<LibraryId> {
     .bind(id.0)
     .bind(name)
     .bind(now_ms())
-    .execute(&db.writer)
+    .execute(&mut *db.write_conn().await?)
     .await?;
     let row = sqlx::query("SELECT id FROM libraries WHERE name = $1")
         .bind(name)
@@ -125,7 +125,7 @@ pub async fn insert_item(db: &Db, library: LibraryId, item: NewItem) -> Result<O
     .bind(serde_json::to_string(&tags).map_err(AppError::internal)?)
     .bind(png)
     .bind(serde_json::to_string(&features).map_err(AppError::internal)?)
-    .execute(&db.writer)
+    .execute(&mut *db.write_conn().await?)
     .await?;
     Ok((result.rows_affected() == 1).then_some(id))
 }

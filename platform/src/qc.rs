@@ -15,19 +15,32 @@ pub fn rule_name(threshold: u32) -> String {
     format!("control_errors>={threshold}")
 }
 
+/// Wrong or unanswered controls of assignment `$1`, as `n`.
+const CONTROL_ERRORS: &str = "SELECT CAST(COUNT(*) AS BIGINT) AS n FROM questions q \
+     JOIN tuples t ON t.id = q.tuple_id \
+     WHERE q.assignment_id = $1 AND t.kind = 'control' \
+     AND (q.choice IS NULL OR q.choice <> t.expected)";
+
+/// [`control_errors`] on the SQLite answer writer's connection.
+pub(crate) fn control_errors_sqlite(
+    conn: &rusqlite::Connection,
+    assignment: AssignmentId,
+) -> Result<i64> {
+    let n = crate::sqlite_direct::optional_row(conn, CONTROL_ERRORS, &[&assignment.0], |r| {
+        r.get::<_, i64>(0)
+    })?;
+    Ok(n.unwrap_or(0))
+}
+
 /// Wrong or unanswered hidden controls of an assignment.
 pub async fn control_errors(
     conn: &mut sqlx::AnyConnection,
     assignment: AssignmentId,
 ) -> Result<i64> {
-    let row = sqlx::query(
-        "SELECT CAST(COUNT(*) AS BIGINT) AS n FROM questions q JOIN tuples t ON t.id = q.tuple_id \
-         WHERE q.assignment_id = $1 AND t.kind = 'control' \
-         AND (q.choice IS NULL OR q.choice <> t.expected)",
-    )
-    .bind(assignment.0)
-    .fetch_one(&mut *conn)
-    .await?;
+    let row = sqlx::query(CONTROL_ERRORS)
+        .bind(assignment.0)
+        .fetch_one(&mut *conn)
+        .await?;
     Ok(row.try_get("n")?)
 }
 
@@ -40,6 +53,41 @@ pub fn verdict(errors: i64, threshold: u32) -> &'static str {
     }
 }
 
+/// The audit row of a decision (`$1` id … `$7` time, in the column order).
+const INSERT_DECISION: &str = "INSERT INTO decisions \
+     (id, assignment_id, decision, rule, actor, control_errors, decided_at) \
+     VALUES ($1, $2, $3, $4, $5, $6, $7)";
+
+/// The assignment's current decision.
+const SET_DECISION: &str = "UPDATE assignments SET decision = $1 WHERE id = $2";
+
+/// [`record`] on the SQLite answer writer's connection, inside its transaction.
+pub(crate) fn record_sqlite(
+    conn: &rusqlite::Connection,
+    assignment: AssignmentId,
+    decision: &str,
+    rule: &str,
+    actor: &str,
+    errors: i64,
+) -> Result<()> {
+    use crate::sqlite_direct::execute;
+    execute(
+        conn,
+        INSERT_DECISION,
+        &[
+            &DecisionId::generate().0,
+            &assignment.0,
+            &decision,
+            &rule,
+            &actor,
+            &errors,
+            &now_ms(),
+        ],
+    )?;
+    execute(conn, SET_DECISION, &[&decision, &assignment.0])?;
+    Ok(())
+}
+
 /// Records a decision inside `tx` and makes it the assignment's current one.
 pub async fn record(
     tx: &mut sqlx::AnyConnection,
@@ -49,20 +97,17 @@ pub async fn record(
     actor: &str,
     errors: i64,
 ) -> Result<()> {
-    sqlx::query(
-        "INSERT INTO decisions (id, assignment_id, decision, rule, actor, control_errors, decided_at) \
-         VALUES ($1, $2, $3, $4, $5, $6, $7)",
-    )
-    .bind(DecisionId::generate().0)
-    .bind(assignment.0)
-    .bind(decision)
-    .bind(rule)
-    .bind(actor)
-    .bind(errors)
-    .bind(now_ms())
-    .execute(&mut *tx)
-    .await?;
-    sqlx::query("UPDATE assignments SET decision = $1 WHERE id = $2")
+    sqlx::query(INSERT_DECISION)
+        .bind(DecisionId::generate().0)
+        .bind(assignment.0)
+        .bind(decision)
+        .bind(rule)
+        .bind(actor)
+        .bind(errors)
+        .bind(now_ms())
+        .execute(&mut *tx)
+        .await?;
+    sqlx::query(SET_DECISION)
         .bind(decision)
         .bind(assignment.0)
         .execute(&mut *tx)

@@ -212,6 +212,23 @@ pub async fn load_on(conn: &mut sqlx::AnyConnection, id: StudyId) -> Result<Stud
     })
 }
 
+/// The study's control-error threshold (`reject_at_control_errors`), read on the SQLite answer
+/// writer's connection inside its transaction (settings may be edited while a study runs).
+pub(crate) fn control_error_threshold_sqlite(
+    conn: &rusqlite::Connection,
+    id: StudyId,
+) -> Result<u32> {
+    let settings = crate::sqlite_direct::optional_row(
+        conn,
+        "SELECT settings FROM studies WHERE id = $1",
+        &[&id.0],
+        |r| r.get::<_, String>(0),
+    )?
+    .ok_or(AppError::NotFound("study"))?;
+    let settings: StudySettings = serde_json::from_str(&settings).map_err(AppError::internal)?;
+    Ok(settings.reject_at_control_errors)
+}
+
 /// All studies, newest first.
 pub async fn list(db: &Db) -> Result<Vec<Study>> {
     let rows = sqlx::query("SELECT id FROM studies ORDER BY created_at DESC")
@@ -501,7 +518,7 @@ pub async fn add_curated(db: &Db, study: &Study, kind: &str, names: [&str; 3]) -
     .bind(ids[0])
     .bind(ids[1])
     .bind(ids[2])
-    .execute(&db.writer)
+    .execute(&mut *db.write_conn().await?)
     .await?;
     Ok(id)
 }

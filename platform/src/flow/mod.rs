@@ -14,12 +14,16 @@ use sha2::Sha256;
 use sqlx::{Any, AnyConnection, Row};
 use utoipa::ToSchema;
 
-use crate::answer_writer::{AnswerSubmit, AnswerWrite, Next, Written};
+use crate::answer_writer::{AnswerSubmit, AnswerWrite, Written};
 use crate::db::{Backend, Db, now_ms};
 use crate::error::{AppError, Result};
 use crate::ids::{AssignmentId, ItemId, StudyId, TupleId, WorkerId, random_token};
 use crate::qc;
 use crate::study::{self, MturkMode, Study};
+
+mod sqlite_writes;
+
+pub(crate) use sqlite_writes::complete_in_sqlite;
 
 /// MTurk's assignment id while a worker only previews a HIT.
 pub const MTURK_PREVIEW: &str = "ASSIGNMENT_ID_NOT_AVAILABLE";
@@ -253,7 +257,6 @@ pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOut
         external,
         training,
         study: study.clone(),
-        backend: db.backend,
         controls,
         rng,
     };
@@ -264,7 +267,7 @@ pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOut
     let outcome = match db.backend {
         Backend::Sqlite => {
             db.answers
-                .job(move |conn| Box::pin(async move { allocation.run(conn).await }))
+                .job(move |conn| allocation.run_sqlite(conn))
                 .await?
         }
         Backend::Postgres => {
@@ -302,7 +305,6 @@ struct Allocation {
     external: String,
     training: bool,
     study: Study,
-    backend: Backend,
     controls: Vec<i64>,
     rng: rand_chacha::ChaCha8Rng,
 }
@@ -317,7 +319,8 @@ enum Allocated {
 }
 
 impl Allocation {
-    /// Runs inside one transaction (or savepoint); an error leaves it to be rolled back.
+    /// Runs inside one transaction (PostgreSQL; SQLite: [`Allocation::run_sqlite`]); an error
+    /// leaves it to be rolled back.
     async fn run(mut self, tx: &mut AnyConnection) -> Result<Allocated> {
         let worker = match self.known {
             Some(w) => w,
@@ -330,11 +333,10 @@ impl Allocation {
             // No free slot left: the error rolls the assignment back as well.
             fill_hit(
                 tx,
-                self.backend,
                 &self.study,
                 self.new.id,
                 worker,
-                self.controls,
+                &self.controls,
                 &mut self.rng,
             )
             .await?;
@@ -373,37 +375,43 @@ struct NewAssignment {
     req: StartRequest,
 }
 
+/// A new assignment (`$1` id … `$14` start time, in the column order); nothing when the worker
+/// already has one in the study.
+const INSERT_ASSIGNMENT: &str = "INSERT INTO assignments (id, token, study_id, worker_id, \
+     source, sandbox, external_assignment, hit_id, submit_to, prolific_study, prolific_session, \
+     demographics, status, training_attempts, started_at) \
+     VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, 0, $14) \
+     ON CONFLICT DO NOTHING";
+
 impl NewAssignment {
+    /// MTurk's submit URL as stored: without a trailing slash.
+    fn submit_to(&self) -> Option<String> {
+        self.req
+            .turk_submit_to
+            .as_deref()
+            .map(|s| s.trim_end_matches('/').to_string())
+    }
+
     /// Inserts it; `false` when the worker already has an assignment in this study.
     async fn insert(&self, tx: &mut AnyConnection, worker: WorkerId) -> Result<bool> {
         let req = &self.req;
-        let inserted = sqlx::query(
-            "INSERT INTO assignments (id, token, study_id, worker_id, source, sandbox, \
-             external_assignment, hit_id, submit_to, prolific_study, prolific_session, \
-             demographics, status, training_attempts, started_at) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, 0, $14) \
-             ON CONFLICT DO NOTHING",
-        )
-        .bind(self.id.0)
-        .bind(&self.token)
-        .bind(self.study.0)
-        .bind(worker.0)
-        .bind(self.source.as_str())
-        .bind(i64::from(self.sandbox))
-        .bind(req.assignment_id.clone())
-        .bind(req.hit_id.clone())
-        .bind(
-            req.turk_submit_to
-                .as_deref()
-                .map(|s| s.trim_end_matches('/').to_string()),
-        )
-        .bind(req.prolific_study_id.clone())
-        .bind(req.prolific_session_id.clone())
-        .bind(&self.demographics)
-        .bind(self.status)
-        .bind(now_ms())
-        .execute(&mut *tx)
-        .await?;
+        let inserted = sqlx::query(INSERT_ASSIGNMENT)
+            .bind(self.id.0)
+            .bind(&self.token)
+            .bind(self.study.0)
+            .bind(worker.0)
+            .bind(self.source.as_str())
+            .bind(i64::from(self.sandbox))
+            .bind(req.assignment_id.clone())
+            .bind(req.hit_id.clone())
+            .bind(self.submit_to())
+            .bind(req.prolific_study_id.clone())
+            .bind(req.prolific_session_id.clone())
+            .bind(&self.demographics)
+            .bind(self.status)
+            .bind(now_ms())
+            .execute(&mut *tx)
+            .await?;
         Ok(inserted.rows_affected() == 1)
     }
 }
@@ -421,18 +429,22 @@ async fn find_worker(db: &Db, source: Source, external: &str) -> Result<Option<W
 }
 
 /// Creates the worker unless a concurrent request just did; returns its id.
+/// Creates worker `$1` (`$2` source, `$3` external id, `$4` time) unless it exists.
+const INSERT_WORKER: &str = "INSERT INTO workers (id, source, external_id, created_at) \
+     VALUES ($1, $2, $3, $4) ON CONFLICT DO NOTHING";
+
+/// The id of the worker with source `$1` and external id `$2`.
+const WORKER_ID: &str = "SELECT id FROM workers WHERE source = $1 AND external_id = $2";
+
 async fn ensure_worker(tx: &mut AnyConnection, source: Source, external: &str) -> Result<WorkerId> {
-    sqlx::query(
-        "INSERT INTO workers (id, source, external_id, created_at) VALUES ($1, $2, $3, $4) \
-         ON CONFLICT DO NOTHING",
-    )
-    .bind(WorkerId::generate().0)
-    .bind(source.as_str())
-    .bind(external)
-    .bind(now_ms())
-    .execute(&mut *tx)
-    .await?;
-    let row = sqlx::query("SELECT id FROM workers WHERE source = $1 AND external_id = $2")
+    sqlx::query(INSERT_WORKER)
+        .bind(WorkerId::generate().0)
+        .bind(source.as_str())
+        .bind(external)
+        .bind(now_ms())
+        .execute(&mut *tx)
+        .await?;
+    let row = sqlx::query(WORKER_ID)
         .bind(source.as_str())
         .bind(external)
         .fetch_one(&mut *tx)
@@ -730,7 +742,7 @@ pub async fn give_up(db: &Db, a: &Assignment) -> Result<()> {
     )
     .bind(now_ms())
     .bind(a.id.0)
-    .execute(&db.writer)
+    .execute(&mut *db.write_conn().await?)
     .await?;
     if done.rows_affected() == 0 && a.status != "screened_out" {
         return Err(AppError::Conflict(format!(
@@ -790,9 +802,10 @@ pub async fn release_abandoned(db: &Db, study: StudyId, older_than_ms: i64) -> R
     Ok(released)
 }
 
-/// Allocates the HIT of an assignment that has passed its training: moves it to `active` and
-/// fills it ([`fill_hit`]) in one transaction. Returns the number of questions (0: a concurrent
-/// request had already allocated it).
+/// Allocates the HIT of an assignment that has passed its training: moves it from `training`
+/// to `active` and fills it, in one write transaction (on SQLite a job of the answer writer,
+/// sharing the answers' commit). Returns the number of questions; 0 when a concurrent request
+/// had already allocated it.
 pub async fn allocate(
     db: &Db,
     study: &Study,
@@ -801,24 +814,32 @@ pub async fn allocate(
 ) -> Result<usize> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(rand::rng().random());
     let controls = hit_controls(db, study, &mut rng).await?;
+    if db.backend == Backend::Sqlite {
+        let study = study.clone();
+        return db
+            .answers
+            .job(move |conn| {
+                sqlite_writes::allocate(conn, &study, assignment, worker, &controls, &mut rng)
+            })
+            .await;
+    }
     let mut tx = db.begin_write().await?;
-    let moved = sqlx::query(
-        "UPDATE assignments SET status = 'active' WHERE id = $1 AND status = 'training'",
-    )
-    .bind(assignment.0)
-    .execute(&mut *tx)
-    .await?;
+    let moved = sqlx::query(ACTIVATE)
+        .bind(assignment.0)
+        .execute(&mut *tx)
+        .await?;
     if moved.rows_affected() == 0 {
         // Already allocated by a concurrent request.
         return Ok(0);
     }
-    let n = fill_hit(
-        &mut tx, db.backend, study, assignment, worker, controls, &mut rng,
-    )
-    .await?;
+    let n = fill_hit(&mut tx, study, assignment, worker, &controls, &mut rng).await?;
     tx.commit().await?;
     Ok(n)
 }
+
+/// Moves assignment `$1` from training to answering.
+const ACTIVATE: &str =
+    "UPDATE assignments SET status = 'active' WHERE id = $1 AND status = 'training'";
 
 /// The hidden controls of a new HIT, drawn at random (read before the write transaction so
 /// that it does not hold the writer).
@@ -838,58 +859,74 @@ async fn hit_controls(db: &Db, study: &Study, rng: &mut impl Rng) -> Result<Vec<
     Ok(controls)
 }
 
-/// Fills a HIT inside `tx`: claims up to `questions - controls` free slots of distinct tuples
-/// the worker has never seen (conditional `UPDATE`s: a slot is filled by exactly one assignment
-/// on both databases), adds the hidden controls, shuffles positions. A study without a free
-/// slot is a conflict (the caller's transaction is then rolled back).
-async fn fill_hit(
-    tx: &mut AnyConnection,
-    backend: Backend,
-    study: &Study,
-    assignment: AssignmentId,
-    worker: WorkerId,
-    controls: Vec<i64>,
+/// One question of a new HIT, at its index's position.
+struct NewQuestion {
+    tuple: i64,
+    /// The claimed slot (`None`: a hidden control).
+    slot: Option<i64>,
+    /// B and C shown the other way round.
+    swapped: bool,
+    /// Ask the reasons questionnaire after it.
+    ask_reasons: bool,
+}
+
+/// The questions of a HIT from its claimed (slot, tuple) pairs and its controls, in random
+/// positions, each shown swapped with probability ½ and asking for reasons with the study's
+/// probability. No claimed slot is a conflict: the study has no more questions to give.
+fn hit_questions(
+    claimed: &[(i64, i64)],
+    controls: &[i64],
+    settings: &study::StudySettings,
     rng: &mut impl Rng,
-) -> Result<usize> {
-    let s = &study.settings;
-    let wanted = (s.questions_per_hit - s.controls_per_hit) as usize;
-    // Start at a random tuple and wrap around once: concurrent allocators spread over the
-    // table instead of all scanning (and, on PostgreSQL, skipping) the same first free rows.
-    let start = rng.random_range(-1..i64::from(s.tuples).max(0));
-    let claim = SlotClaim {
-        assignment,
-        worker,
-        study: study.id,
-        now: now_ms(),
-        wanted,
-        start,
-    };
-    let claimed = match backend {
-        Backend::Sqlite => claim.many_per_statement(tx).await?,
-        Backend::Postgres => claim.one_per_statement(tx).await?,
-    };
+) -> Result<Vec<NewQuestion>> {
     if claimed.is_empty() {
         return Err(AppError::Conflict(
             "this study has no more questions available".into(),
         ));
     }
-    let mut questions: Vec<(i64, Option<i64>)> =
-        claimed.iter().map(|&(s, t)| (t, Some(s))).collect();
-    questions.extend(controls.iter().map(|&t| (t, None)));
-    questions.shuffle(rng);
-    // One multi-row INSERT instead of one statement per question: the transaction holds
-    // SQLite's single writer, and answers queue behind it.
+    let mut drawn: Vec<(i64, Option<i64>)> = claimed.iter().map(|&(s, t)| (t, Some(s))).collect();
+    drawn.extend(controls.iter().map(|&t| (t, None)));
+    drawn.shuffle(rng);
+    Ok(drawn
+        .into_iter()
+        .map(|(tuple, slot)| {
+            let ask_reasons = rng.random_bool(settings.reasons_probability);
+            NewQuestion {
+                tuple,
+                slot,
+                swapped: rng.random_bool(0.5),
+                ask_reasons,
+            }
+        })
+        .collect())
+}
+
+/// Fills a HIT inside `tx` (PostgreSQL; SQLite: [`sqlite_writes`]): claims up to `questions -
+/// controls` free slots of distinct tuples the worker has never seen (conditional `UPDATE`s: a
+/// slot is filled by exactly one assignment), adds the hidden controls, shuffles positions. A
+/// study without a free slot is a conflict (the caller's transaction is then rolled back).
+async fn fill_hit(
+    tx: &mut AnyConnection,
+    study: &Study,
+    assignment: AssignmentId,
+    worker: WorkerId,
+    controls: &[i64],
+    rng: &mut impl Rng,
+) -> Result<usize> {
+    let claim = SlotClaim::new(study, assignment, worker, rng);
+    let claimed = claim.one_per_statement(tx).await?;
+    let questions = hit_questions(&claimed, controls, &study.settings, rng)?;
+    // One multi-row INSERT instead of one statement per question (one round trip).
     let sql = questions_insert_sql(questions.len());
     let mut insert = sqlx::query(sqlx::AssertSqlSafe(sql));
-    for (position, (tuple, slot)) in questions.iter().enumerate() {
-        let ask = rng.random_bool(s.reasons_probability);
+    for (position, q) in questions.iter().enumerate() {
         insert = insert
             .bind(assignment.0)
             .bind(position as i64)
-            .bind(*tuple)
-            .bind(*slot)
-            .bind(i64::from(rng.random_bool(0.5)))
-            .bind(i64::from(ask));
+            .bind(q.tuple)
+            .bind(q.slot)
+            .bind(i64::from(q.swapped))
+            .bind(i64::from(q.ask_reasons));
     }
     insert.execute(&mut *tx).await?;
     Ok(questions.len())
@@ -910,80 +947,19 @@ struct SlotClaim {
 }
 
 impl SlotClaim {
-    /// SQLite (`BEGIN IMMEDIATE` already serialises writers): one free slot of each of the
-    /// next tuples per read and claim — two of them per HIT instead of one per question, so the
-    /// single writer, and the answers queued behind it, are free sooner. Returns (slot, tuple).
-    async fn many_per_statement(&self, tx: &mut AnyConnection) -> Result<Vec<(i64, i64)>> {
-        let mut claimed = self
-            .claim_range(tx, self.start, i64::MAX, self.wanted)
-            .await?;
-        if claimed.len() < self.wanted {
-            // Wrap around: from the first tuple up to where the first pass began.
-            let upper = claimed
-                .iter()
-                .map(|&(_, _, seq)| seq)
-                .min()
-                .unwrap_or(self.start + 1);
-            let missing = self.wanted - claimed.len();
-            claimed.extend(self.claim_range(tx, -1, upper, missing).await?);
+    /// The claim of one HIT: `questions - controls` slots, starting at a random tuple (and
+    /// wrapping around once), so that concurrent allocators spread over the table instead of
+    /// all scanning (and, on PostgreSQL, skipping) the same first free rows.
+    fn new(study: &Study, assignment: AssignmentId, worker: WorkerId, rng: &mut impl Rng) -> Self {
+        let s = &study.settings;
+        Self {
+            assignment,
+            worker,
+            study: study.id,
+            now: now_ms(),
+            wanted: (s.questions_per_hit - s.controls_per_hit) as usize,
+            start: rng.random_range(-1..i64::from(s.tuples).max(0)),
         }
-        Ok(claimed
-            .into_iter()
-            .map(|(slot, tuple, _)| (slot, tuple))
-            .collect())
-    }
-
-    /// One free slot of each of the first `limit` tuples with `lower < seq < upper` (SQLite).
-    /// Returns (slot, tuple, seq).
-    ///
-    /// Read as one JSON row, then claimed by id, instead of one `UPDATE … RETURNING`: sqlx
-    /// hands each result row from the connection's thread to the (single) writer through a
-    /// channel, and the ~45 rows of a HIT were as many hand-offs while every writer waited.
-    /// Nothing can take the slots in between: the caller holds SQLite's write lock.
-    async fn claim_range(
-        &self,
-        tx: &mut AnyConnection,
-        lower: i64,
-        upper: i64,
-        limit: usize,
-    ) -> Result<Vec<(i64, i64, i64)>> {
-        let free: Vec<(i64, i64, i64)> = crate::db::json_array_row(
-            tx,
-            sqlx::query(
-                "SELECT json_group_array(json_array(id, tuple_id, seq)) AS rows FROM \
-                   (SELECT MIN(s.id) AS id, s.tuple_id, s.seq FROM slots s \
-                    WHERE s.study_id = $1 AND s.assignment_id IS NULL AND s.seq > $2 \
-                      AND s.seq < $3 \
-                    GROUP BY s.seq ORDER BY s.seq LIMIT $4)",
-            )
-            .bind(self.study.0)
-            .bind(lower)
-            .bind(upper)
-            .bind(limit as i64),
-        )
-        .await?;
-        if free.is_empty() {
-            return Ok(free);
-        }
-        let ids: Vec<i64> = free.iter().map(|&(slot, _, _)| slot).collect();
-        let done = sqlx::query(
-            "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
-             WHERE assignment_id IS NULL AND id IN (SELECT value FROM json_each($4))",
-        )
-        .bind(self.assignment.0)
-        .bind(self.worker.0)
-        .bind(self.now)
-        .bind(serde_json::to_string(&ids).map_err(AppError::internal)?)
-        .execute(&mut *tx)
-        .await?;
-        if done.rows_affected() != free.len() as u64 {
-            return Err(AppError::Internal(format!(
-                "claimed {} of {} slots read as free",
-                done.rows_affected(),
-                free.len()
-            )));
-        }
-        Ok(free)
     }
 
     /// Binds `$1..$6` of the PostgreSQL claim statement: who claims, when, in which study, and
@@ -1153,6 +1129,27 @@ impl AnswerTarget {
     }
 }
 
+impl AnswerTarget {
+    /// [`AnswerTarget::from_row`] for a row of the SQLite answer writer's connection.
+    pub(crate) fn from_sqlite_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<Self> {
+        let question = match r.get::<_, Option<i64>>("position")? {
+            None => None,
+            Some(_) => Some(TargetQuestion {
+                b: r.get("b")?,
+                c: r.get("c")?,
+                ask_reasons: r.get::<_, i64>("ask_reasons")? != 0,
+                choice: r.get("choice")?,
+            }),
+        };
+        Ok(AnswerTarget {
+            assignment: AssignmentId(r.get("id")?),
+            study: StudyId(r.get("study_id")?),
+            status: r.get("status")?,
+            question,
+        })
+    }
+}
+
 pub(crate) struct TargetQuestion {
     pub(crate) b: i64,
     pub(crate) c: i64,
@@ -1160,24 +1157,26 @@ pub(crate) struct TargetQuestion {
     pub(crate) choice: Option<String>,
 }
 
-/// The assignment behind `token` and its question at `position`, with the question's two
-/// options (never a control's expected answer), in one round trip instead of one per table.
+/// The assignment behind `$1` (its token) and its question at position `$2`, with the
+/// question's two options (never a control's expected answer), in one round trip instead of one
+/// per table; no row without such an assignment.
+pub(crate) const ANSWER_TARGET: &str = "SELECT a.id, a.study_id, a.status, q.position, q.choice, \
+     q.ask_reasons, t.b, t.c FROM assignments a \
+     LEFT JOIN questions q ON q.assignment_id = a.id AND q.position = $2 \
+     LEFT JOIN tuples t ON t.id = q.tuple_id \
+     WHERE a.token = $1";
+
+/// The row of [`ANSWER_TARGET`] for `token` and `position`.
 async fn answer_target(db: &Db, token: &str, position: i64) -> Result<AnswerTarget> {
     if !valid_token(token) {
         return Err(AppError::NotFound("assignment"));
     }
-    let r = sqlx::query(
-        "SELECT a.id, a.study_id, a.status, q.position, q.choice, q.ask_reasons, t.b, t.c \
-         FROM assignments a \
-         LEFT JOIN questions q ON q.assignment_id = a.id AND q.position = $2 \
-         LEFT JOIN tuples t ON t.id = q.tuple_id \
-         WHERE a.token = $1",
-    )
-    .bind(token)
-    .bind(position)
-    .fetch_optional(&db.pool)
-    .await?
-    .ok_or(AppError::NotFound("assignment"))?;
+    let r = sqlx::query(ANSWER_TARGET)
+        .bind(token)
+        .bind(position)
+        .fetch_optional(&db.pool)
+        .await?
+        .ok_or(AppError::NotFound("assignment"))?;
     AnswerTarget::from_row(&r)
 }
 
@@ -1264,8 +1263,7 @@ async fn store(
         })
         .await?;
     match written {
-        Written::Stored(Next::Known(next)) => Ok((false, next)),
-        Written::Stored(Next::ReadAfterCommit) => Ok((false, next_unanswered(db, id).await?)),
+        Written::Stored => Ok((false, next_unanswered(db, id).await?)),
         Written::AlreadyAnswered => {
             // A concurrent request answered it first: the same answer → duplicate, else conflict.
             let again = sqlx::query(
@@ -1284,13 +1282,17 @@ async fn store(
     }
 }
 
+/// The first open position of an assignment (`questions_open` index); NULL when none is left.
+pub(crate) const NEXT_OPEN: &str =
+    "SELECT MIN(position) AS p FROM questions WHERE assignment_id = $1 AND choice IS NULL";
+
+/// Stores a question's answer if it has none (`$1` choice, `$2` time, `$3` elapsed ms, `$4`
+/// assignment, `$5` position).
+pub(crate) const STORE_ANSWER: &str = "UPDATE questions SET choice = $1, answered_at = $2, \
+     elapsed_ms = $3 WHERE assignment_id = $4 AND position = $5 AND choice IS NULL";
+
 async fn next_unanswered(db: &Db, a: AssignmentId) -> Result<Option<i64>> {
-    let row = sqlx::query(
-        "SELECT MIN(position) AS p FROM questions WHERE assignment_id = $1 AND choice IS NULL",
-    )
-    .bind(a.0)
-    .fetch_one(&db.pool)
-    .await?;
+    let row = sqlx::query(NEXT_OPEN).bind(a.0).fetch_one(&db.pool).await?;
     Ok(row.try_get::<Option<i64>, _>("p")?)
 }
 
@@ -1305,16 +1307,20 @@ async fn complete(db: &Db, study: StudyId, a: AssignmentId) -> Result<()> {
         // With the answers' group commit: no fsync of its own, no wait for a turn.
         Backend::Sqlite => {
             db.answers
-                .job(move |conn| Box::pin(async move { complete_in(conn, a, threshold).await }))
+                .job(move |conn| complete_in_sqlite(conn, a, threshold))
                 .await
         }
         Backend::Postgres => {
-            let mut tx = db.begin_write_unqueued().await?;
+            let mut tx = db.begin_write().await?;
             complete_in(&mut tx, a, threshold).await?;
             tx.commit().await
         }
     }
 }
+
+/// Marks assignment `$2` completed at `$1` if it is active.
+const COMPLETE: &str = "UPDATE assignments SET status = 'completed', completed_at = $1 \
+     WHERE id = $2 AND status = 'active'";
 
 /// The writes of [`complete`], inside the caller's transaction.
 pub(crate) async fn complete_in(
@@ -1322,13 +1328,11 @@ pub(crate) async fn complete_in(
     a: AssignmentId,
     threshold: u32,
 ) -> Result<()> {
-    let done = sqlx::query(
-        "UPDATE assignments SET status = 'completed', completed_at = $1 WHERE id = $2 AND status = 'active'",
-    )
-    .bind(now_ms())
-    .bind(a.0)
-    .execute(&mut *tx)
-    .await?;
+    let done = sqlx::query(COMPLETE)
+        .bind(now_ms())
+        .bind(a.0)
+        .execute(&mut *tx)
+        .await?;
     if done.rows_affected() == 1 {
         let errors = qc::control_errors(tx, a).await?;
         qc::record(
@@ -1420,7 +1424,7 @@ pub async fn submit_reasons(db: &Db, a: &Assignment, req: &ReasonsRequest) -> Re
     .bind(text)
     .bind(a.id.0)
     .bind(req.position)
-    .execute(&db.writer)
+    .execute(&mut *db.write_conn().await?)
     .await?;
     Ok(())
 }
