@@ -1,9 +1,10 @@
 //! The database layer: one sqlx `Any` pool over SQLite or PostgreSQL, one migration set, `$n`
 //! bound parameters everywhere (never string-built SQL).
 //!
-//! SQLite runs in WAL mode with `synchronous=FULL`, so an acknowledged answer survives a crash;
-//! write transactions start with `BEGIN IMMEDIATE` there so two writers never deadlock on a
-//! lock upgrade. PostgreSQL uses its default READ COMMITTED isolation: every claim is a
+//! SQLite runs in WAL mode with `synchronous=FULL`, so an acknowledged write survives a crash
+//! (the answer writer's own connection uses `NORMAL` and fdatasyncs the WAL itself before it
+//! answers anyone, see [`crate::answer_writer`]); write transactions start with `BEGIN
+//! IMMEDIATE` there so two writers never deadlock on a lock upgrade. PostgreSQL uses its default READ COMMITTED isolation: every claim is a
 //! conditional `UPDATE ... WHERE assignment_id IS NULL`, which PostgreSQL re-checks after waiting
 //! for a concurrent writer, so a slot is never filled twice.
 

@@ -147,14 +147,25 @@ fn wrong_backend(what: &str) -> AppError {
 
 impl AnswerWriter {
     /// Starts the SQLite writer on a thread of its own, with its own connection to the
-    /// database file at `path`; each batch holds `turn` (the process's SQLite write turn, see
-    /// [`crate::db::Db::begin_write`]) while it writes.
+    /// database file at `path`, and its WAL sync thread (see [`sqlite`]); each batch holds
+    /// `turn` (the process's SQLite write turn, see [`crate::db::Db::begin_write`]) while it
+    /// writes.
     pub fn start_sqlite(path: &Path, turn: Arc<tokio::sync::Mutex<()>>) -> Result<Self> {
         let conn = crate::sqlite_direct::open(path)?;
+        // Durability comes from the sync thread's fdatasync before any reply (see [`sqlite`]).
+        conn.pragma_update(None, "synchronous", "NORMAL")?;
+        let mut wal = path.as_os_str().to_owned();
+        wal.push("-wal");
+        let wal = std::path::PathBuf::from(wal);
+        let (to_sync, queued) = std::sync::mpsc::channel();
+        std::thread::Builder::new()
+            .name("answer-sync".into())
+            .spawn(move || sqlite::sync_loop(&wal, &queued))
+            .map_err(AppError::internal)?;
         let (queue, rx) = mpsc::unbounded_channel();
         std::thread::Builder::new()
             .name("answer-writer".into())
-            .spawn(move || sqlite::run(&conn, &turn, rx))
+            .spawn(move || sqlite::run(&conn, &turn, rx, &to_sync))
             .map_err(AppError::internal)?;
         Ok(Self { queue })
     }
