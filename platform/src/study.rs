@@ -212,12 +212,9 @@ pub async fn load_on(conn: &mut sqlx::AnyConnection, id: StudyId) -> Result<Stud
     })
 }
 
-/// The study's control-error threshold (`reject_at_control_errors`), read on the SQLite answer
-/// writer's connection inside its transaction (settings may be edited while a study runs).
-pub(crate) fn control_error_threshold_sqlite(
-    conn: &rusqlite::Connection,
-    id: StudyId,
-) -> Result<u32> {
+/// A study's settings as stored now, read on the SQLite answer writer's connection inside its
+/// transaction (settings may be edited while a study runs).
+pub(crate) fn settings_sqlite(conn: &rusqlite::Connection, id: StudyId) -> Result<StudySettings> {
     let settings = crate::sqlite_direct::optional_row(
         conn,
         "SELECT settings FROM studies WHERE id = $1",
@@ -225,8 +222,7 @@ pub(crate) fn control_error_threshold_sqlite(
         |r| r.get::<_, String>(0),
     )?
     .ok_or(AppError::NotFound("study"))?;
-    let settings: StudySettings = serde_json::from_str(&settings).map_err(AppError::internal)?;
-    Ok(settings.reject_at_control_errors)
+    serde_json::from_str(&settings).map_err(AppError::internal)
 }
 
 /// All studies, newest first.

@@ -228,7 +228,8 @@ pub(super) fn submit_batch(
             let threshold = match thresholds.get(&target.study) {
                 Some(&t) => t,
                 None => {
-                    let t = crate::study::control_error_threshold_sqlite(conn, target.study)?;
+                    let t =
+                        crate::study::settings_sqlite(conn, target.study)?.reject_at_control_errors;
                     thresholds.insert(target.study, t);
                     t
                 }

@@ -322,6 +322,12 @@ impl Allocation {
     /// Runs inside one transaction (PostgreSQL; SQLite: [`Allocation::run_sqlite`]); an error
     /// leaves it to be rolled back.
     async fn run(mut self, tx: &mut AnyConnection) -> Result<Allocated> {
+        let row = sqlx::query(SETTINGS_NOW_POSTGRES)
+            .bind(self.study.id.0)
+            .fetch_one(&mut *tx)
+            .await?;
+        let now = parse_settings(&row.try_get::<String, _>("settings")?)?;
+        check_unchanged(&self.study.settings, &now, Some(&self.external))?;
         let worker = match self.known {
             Some(w) => w,
             None => ensure_worker(tx, self.new.source, &self.external).await?,
@@ -343,6 +349,46 @@ impl Allocation {
         }
         Ok(Allocated::New(self.new.token))
     }
+}
+
+/// The study's settings as stored now, read first in an allocation's transaction. On
+/// PostgreSQL with `FOR KEY SHARE`, which conflicts with the `FOR UPDATE` of a settings edit
+/// ([`crate::study_edit::edit`]): an edit that locked the row first commits before this read,
+/// which then sees it; an edit that comes later waits for this allocation and then sees its
+/// assignment (and refuses to change the HIT shape). On SQLite the allocation runs in the
+/// answer writer's transaction, which every other writer waits for
+/// ([`crate::study::settings_sqlite`]).
+const SETTINGS_NOW_POSTGRES: &str = "SELECT settings FROM studies WHERE id = $1 FOR KEY SHARE";
+
+fn parse_settings(json: &str) -> Result<study::StudySettings> {
+    serde_json::from_str(json).map_err(AppError::internal)
+}
+
+/// Refuses an allocation if, since the request read the study, the settings changed in what
+/// shapes a HIT (`questions_per_hit`, `controls_per_hit`) or binds it to an MTurk site, or the
+/// worker (`external`, when known) was blocked: the request's checks and the HIT would
+/// otherwise follow settings that are no longer the study's. A retry reads the new ones.
+fn check_unchanged(
+    used: &study::StudySettings,
+    now: &study::StudySettings,
+    external: Option<&str>,
+) -> Result<()> {
+    if used.questions_per_hit != now.questions_per_hit
+        || used.controls_per_hit != now.controls_per_hit
+        || used.mturk_mode != now.mturk_mode
+    {
+        return Err(AppError::Conflict(
+            "the study's settings changed while this HIT was being started; please retry".into(),
+        ));
+    }
+    if let Some(worker) = external
+        && now.blocked_workers.iter().any(|b| b == worker)
+    {
+        return Err(AppError::Forbidden(
+            "you are not eligible for this study".into(),
+        ));
+    }
+    Ok(())
 }
 
 /// Refuses workers who took part in one of the studies this one excludes.
@@ -824,6 +870,15 @@ pub async fn allocate(
             .await;
     }
     let mut tx = db.begin_write().await?;
+    let row = sqlx::query(SETTINGS_NOW_POSTGRES)
+        .bind(study.id.0)
+        .fetch_one(&mut *tx)
+        .await?;
+    check_unchanged(
+        &study.settings,
+        &parse_settings(&row.try_get::<String, _>("settings")?)?,
+        None,
+    )?;
     let moved = sqlx::query(ACTIVATE)
         .bind(assignment.0)
         .execute(&mut *tx)
@@ -1668,5 +1723,110 @@ mod tests {
         assert!(valid_external("w", "").is_err());
         assert!(valid_external("w", "<script>").is_err());
         assert!(valid_external("w", &"x".repeat(129)).is_err());
+    }
+
+    /// A fresh SQLite file, and a fresh PostgreSQL database when `TEST_POSTGRES_URL` names a
+    /// server (`scripts/test` starts one; CI must have it).
+    async fn databases() -> Vec<(Db, Option<tempfile::TempDir>)> {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let url = format!("sqlite://{}", dir.path().join("f.db").display());
+        let mut dbs = vec![(Db::connect(&url, 4).await.expect("sqlite"), Some(dir))];
+        match std::env::var("TEST_POSTGRES_URL")
+            .ok()
+            .filter(|u| !u.is_empty())
+        {
+            Some(admin) => {
+                sqlx::any::install_default_drivers();
+                let name = format!("f_{:016x}", rand::rng().random::<u64>());
+                let mut conn = <AnyConnection as sqlx::Connection>::connect(&admin)
+                    .await
+                    .expect("connect to TEST_POSTGRES_URL");
+                sqlx::Executor::execute(
+                    &mut conn,
+                    sqlx::AssertSqlSafe(format!("CREATE DATABASE {name}")),
+                )
+                .await
+                .expect("create database");
+                let (head, _) = admin.rsplit_once('/').expect("database path");
+                let db = Db::connect(&format!("{head}/{name}"), 4)
+                    .await
+                    .expect("postgres");
+                dbs.push((db, None));
+            }
+            None => assert!(
+                std::env::var("CI").is_err(),
+                "TEST_POSTGRES_URL is not set: CI must run the PostgreSQL half"
+            ),
+        }
+        dbs
+    }
+
+    async fn assignments_of(db: &Db, worker: &str) -> i64 {
+        sqlx::query(
+            "SELECT CAST(COUNT(*) AS BIGINT) AS n FROM assignments a \
+             JOIN workers w ON w.id = a.worker_id WHERE w.external_id = $1",
+        )
+        .bind(worker)
+        .fetch_one(&db.pool)
+        .await
+        .expect("count")
+        .get("n")
+    }
+
+    /// A start that read the study before an edit of its HIT shape, MTurk site or block list
+    /// committed allocates nothing with the old settings: the allocation re-reads them in its
+    /// own transaction and refuses (409, or 403 for a worker blocked meanwhile); a retry with
+    /// the study as it is now gets a HIT of the new shape. On both databases.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn starts_follow_settings_edited_since_the_study_was_read() {
+        for (db, _dir) in databases().await {
+            let id = crate::bench::prepare(&db, 2, 1).await.expect("study");
+            let direct = |worker: &str| StartRequest {
+                source: Some(Source::Direct),
+                worker_id: Some(worker.to_string()),
+                ..StartRequest::default()
+            };
+            let stale = study::load(&db, id).await.expect("load");
+            let shape = crate::study_edit::SettingsPatch {
+                questions_per_hit: Some(20),
+                ..Default::default()
+            };
+            crate::study_edit::edit(&db, id, &shape, "test")
+                .await
+                .expect("edit before any assignment");
+            let refused = start(&db, &stale, direct("w1")).await;
+            assert!(matches!(refused, Err(AppError::Conflict(_))), "{refused:?}");
+            assert_eq!(assignments_of(&db, "w1").await, 0, "{:?}", db.backend);
+
+            let fresh = study::load(&db, id).await.expect("load");
+            let Ok(StartOutcome::Started { token, .. }) = start(&db, &fresh, direct("w1")).await
+            else {
+                panic!("a retry with the current settings starts")
+            };
+            let questions: i64 = sqlx::query(
+                "SELECT CAST(COUNT(*) AS BIGINT) AS n FROM questions q \
+                 JOIN assignments a ON a.id = q.assignment_id WHERE a.token = $1",
+            )
+            .bind(&token)
+            .fetch_one(&db.pool)
+            .await
+            .expect("questions")
+            .get("n");
+            assert_eq!(questions, 20);
+
+            let block = crate::study_edit::SettingsPatch {
+                blocked_workers: Some(vec!["w2".into()]),
+                ..Default::default()
+            };
+            crate::study_edit::edit(&db, id, &block, "test")
+                .await
+                .expect("block");
+            let blocked = start(&db, &fresh, direct("w2")).await;
+            assert!(
+                matches!(blocked, Err(AppError::Forbidden(_))),
+                "{blocked:?}"
+            );
+            assert_eq!(assignments_of(&db, "w2").await, 0);
+        }
     }
 }

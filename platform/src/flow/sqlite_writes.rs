@@ -10,7 +10,7 @@ use rusqlite::Connection;
 
 use super::{
     ACTIVATE, Allocated, Allocation, COMPLETE, INSERT_ASSIGNMENT, INSERT_WORKER, NewAssignment,
-    SlotClaim, Source, WORKER_ID, hit_questions,
+    SlotClaim, Source, WORKER_ID, check_unchanged, hit_questions,
 };
 use crate::db::now_ms;
 use crate::error::{AppError, Result};
@@ -22,6 +22,11 @@ use crate::study::Study;
 impl Allocation {
     /// [`Allocation::run`] on the answer writer's connection, inside its savepoint.
     pub(super) fn run_sqlite(mut self, conn: &Connection) -> Result<Allocated> {
+        check_unchanged(
+            &self.study.settings,
+            &crate::study::settings_sqlite(conn, self.study.id)?,
+            Some(&self.external),
+        )?;
         let worker = match self.known {
             Some(w) => w,
             None => ensure_worker(conn, self.new.source, &self.external)?,
@@ -100,6 +105,11 @@ pub(super) fn allocate(
     controls: &[i64],
     rng: &mut impl Rng,
 ) -> Result<usize> {
+    check_unchanged(
+        &study.settings,
+        &crate::study::settings_sqlite(conn, study.id)?,
+        None,
+    )?;
     if execute(conn, ACTIVATE, &[&assignment.0])? == 0 {
         return Ok(0);
     }
