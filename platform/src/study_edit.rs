@@ -21,7 +21,7 @@ use sqlx::Row;
 
 use crate::db::{Backend, Db, now_ms};
 use crate::error::{AppError, Result};
-use crate::ids::{SettingsChangeId, StudyId};
+use crate::ids::{AssignmentId, SettingsChangeId, StudyId};
 use crate::study::{MturkMode, StudySettings};
 
 /// A partial [`StudySettings`]: the fields to change; absent fields stay as they are.
@@ -56,7 +56,8 @@ pub struct SettingsPatch {
     #[serde(deserialize_with = "nullable")]
     #[schema(value_type = Option<String>, nullable = true)]
     pub prolific_screenout_code: Option<Option<String>>,
-    /// The whole list of blocked worker ids (any time; a blocked worker cannot start or resume).
+    /// The whole list of blocked worker ids (any time; a blocked worker cannot start or resume,
+    /// and a HIT they have open in this study ends: further answers are refused).
     pub blocked_workers: Option<Vec<String>>,
     /// The whole list of studies whose workers may not take part (any time).
     pub exclude_workers_of: Option<Vec<StudyId>>,
@@ -302,6 +303,26 @@ pub async fn edit(db: &Db, study: StudyId, patch: &SettingsPatch, actor: &str) -
         .bind(study.0)
         .execute(&mut *tx)
         .await?;
+    // Blocking also ends the HIT a newly blocked worker has open in this study: further
+    // answers are refused and its unanswered slots go back to other workers (the answers
+    // already given stay, as for an expired assignment).
+    for worker in settings
+        .blocked_workers
+        .iter()
+        .filter(|w| !current.blocked_workers.contains(w))
+    {
+        let open = sqlx::query(
+            "SELECT a.id FROM assignments a JOIN workers w ON w.id = a.worker_id \
+             WHERE a.study_id = $1 AND w.external_id = $2 AND a.status IN ('training', 'active')",
+        )
+        .bind(study.0)
+        .bind(worker)
+        .fetch_all(&mut *tx)
+        .await?;
+        for row in open {
+            crate::flow::end_open_assignment(&mut tx, AssignmentId(row.try_get("id")?)).await?;
+        }
+    }
     let now = now_ms();
     for c in &changes {
         sqlx::query(

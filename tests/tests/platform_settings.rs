@@ -460,6 +460,52 @@ async fn edit_settings(db: TestDb) {
             .get("/api/v1/admin/studies/{study}/settings/changes")
             .is_some()
     );
+
+    // Blocking a worker mid-HIT ends that HIT: the answer already given stays, the next one
+    // is refused, and the assignment shows as abandoned.
+    let token = start_worker(&c, base, study, "midway").await;
+    pass_training(&c, base, &token, &styles, Behaviour::Honest).await;
+    let state = format!("{base}/api/v1/assignments/{token}");
+    let answer = |q: &Value| {
+        c.post(format!("{base}/api/v1/assignments/{token}/answers"))
+            .json(&json!({"position": q["position"], "choice": choose(q, &styles, Behaviour::Honest)}))
+    };
+    let (_, st) = send(c.get(&state)).await;
+    let first = st["question"].clone();
+    let (status, ack) = send(answer(&first)).await;
+    assert_eq!(status, 200, "{ack}");
+    let (_, st) = send(c.get(&state)).await;
+    let second = st["question"].clone();
+    assert_ne!(second["position"], first["position"], "{st}");
+    let (status, body) = api
+        .patch(
+            study,
+            json!({"blocked_workers": ["BLOCKED-1", "BLOCKED-2", "midway"]}),
+        )
+        .await;
+    assert_eq!(status, 200, "{body}");
+    let (status, body) = send(answer(&second)).await;
+    assert_eq!(status, 409, "an answer after the block: {body}");
+    let (status, st) = send(c.get(&state)).await;
+    assert_eq!((status, &st["status"]), (200, &json!("abandoned")), "{st}");
+    let (_, rows) = api
+        .get(&format!("/api/v1/admin/studies/{study}/workers"))
+        .await;
+    let ended: Vec<&Value> = rows
+        .as_array()
+        .expect("rows")
+        .iter()
+        .filter(|r| r["status"] == "abandoned")
+        .collect();
+    assert_eq!(
+        ended.len(),
+        1,
+        "only the blocked worker's HIT ended: {rows}"
+    );
+    assert_eq!(
+        ended[0]["answered"], 1,
+        "the answer given before the block stays: {rows}"
+    );
 }
 
 both_databases!(edit_settings, edit_settings_sqlite, edit_settings_postgres);

@@ -815,37 +815,45 @@ pub async fn release_abandoned(db: &Db, study: StudyId, older_than_ms: i64) -> R
     .await?;
     let mut released = 0;
     for r in rows {
-        let id: i64 = r.try_get("id")?;
+        let id = AssignmentId(r.try_get("id")?);
         let mut tx = db.begin_write().await?;
-        let moved = sqlx::query(
-            "UPDATE assignments SET status = 'abandoned', completed_at = $1 WHERE id = $2 \
-             AND status IN ('training', 'active')",
-        )
-        .bind(now_ms())
-        .bind(id)
-        .execute(&mut *tx)
-        .await?;
-        if moved.rows_affected() == 1 {
-            sqlx::query(
-                "UPDATE slots SET assignment_id = NULL, worker_id = NULL, claimed_at = NULL \
-                 WHERE assignment_id = $1 AND id IN \
-                 (SELECT slot_id FROM questions WHERE assignment_id = $1 AND choice IS NULL \
-                  AND slot_id IS NOT NULL)",
-            )
-            .bind(id)
-            .execute(&mut *tx)
-            .await?;
-            sqlx::query(
-                "UPDATE questions SET slot_id = NULL WHERE assignment_id = $1 AND choice IS NULL",
-            )
-            .bind(id)
-            .execute(&mut *tx)
-            .await?;
+        if end_open_assignment(&mut tx, id).await? {
             released += 1;
         }
         tx.commit().await?;
     }
     Ok(released)
+}
+
+/// Ends an assignment still in training or answering, inside `tx`: it becomes `abandoned`
+/// (further answers are refused) and the slots of its unanswered questions are freed for
+/// other workers; answers already given are kept. `false` if it was not open.
+pub(crate) async fn end_open_assignment(tx: &mut AnyConnection, id: AssignmentId) -> Result<bool> {
+    let moved = sqlx::query(
+        "UPDATE assignments SET status = 'abandoned', completed_at = $1 WHERE id = $2 \
+         AND status IN ('training', 'active')",
+    )
+    .bind(now_ms())
+    .bind(id.0)
+    .execute(&mut *tx)
+    .await?;
+    if moved.rows_affected() == 0 {
+        return Ok(false);
+    }
+    sqlx::query(
+        "UPDATE slots SET assignment_id = NULL, worker_id = NULL, claimed_at = NULL \
+         WHERE assignment_id = $1 AND id IN \
+         (SELECT slot_id FROM questions WHERE assignment_id = $1 AND choice IS NULL \
+          AND slot_id IS NOT NULL)",
+    )
+    .bind(id.0)
+    .execute(&mut *tx)
+    .await?;
+    sqlx::query("UPDATE questions SET slot_id = NULL WHERE assignment_id = $1 AND choice IS NULL")
+        .bind(id.0)
+        .execute(&mut *tx)
+        .await?;
+    Ok(true)
 }
 
 /// Allocates the HIT of an assignment that has passed its training: moves it from `training`
