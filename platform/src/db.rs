@@ -4,9 +4,10 @@
 //! SQLite runs in WAL mode with `synchronous=FULL`, so an acknowledged write survives a crash
 //! (the answer writer's own connection uses `NORMAL` and fdatasyncs the WAL itself before it
 //! answers anyone, see [`crate::answer_writer`]); write transactions start with `BEGIN
-//! IMMEDIATE` there so two writers never deadlock on a lock upgrade. PostgreSQL uses its default READ COMMITTED isolation: every claim is a
-//! conditional `UPDATE ... WHERE assignment_id IS NULL`, which PostgreSQL re-checks after waiting
-//! for a concurrent writer, so a slot is never filled twice.
+//! IMMEDIATE` there so two writers never deadlock on a lock upgrade. PostgreSQL uses its
+//! default READ COMMITTED isolation: every claim is a conditional `UPDATE ... WHERE
+//! assignment_id IS NULL`, which PostgreSQL re-checks after waiting for a concurrent writer, so
+//! a slot is never filled twice.
 
 use std::ops::{Deref, DerefMut};
 use std::sync::Arc;
@@ -42,7 +43,8 @@ pub struct Db {
     pub writer: AnyPool,
     /// The backend behind it.
     pub backend: Backend,
-    /// Group commit of answers through `writer` (see [`crate::answer_writer`]).
+    /// Group commit of answers (see [`crate::answer_writer`]): on SQLite through a connection
+    /// of its own, on PostgreSQL through `pool`.
     pub answers: AnswerWriter,
     /// SQLite only: the process's write turn, taken by the answer writer for each batch and
     /// by every sqlx write (see [`Db::begin_write`]).

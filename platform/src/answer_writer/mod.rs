@@ -7,27 +7,27 @@
 //! answers (the client retries; answers are idempotent). A database error aborts the whole batch
 //! and every caller in it gets the error (none was acknowledged).
 //!
-//! On SQLite ([`sqlite`]) an answer is handed over as the worker sent it
+//! On SQLite (`answer_writer/sqlite.rs`) an answer is handed over as the worker sent it
 //! ([`AnswerWriter::submit`]) and everything happens inside the writer's `BEGIN IMMEDIATE`
 //! transaction: the read of the answer's assignment and question, the checks of
 //! [`crate::flow::answer`], the conditional `UPDATE`, the read of the assignment's next open
-//! position and the completion of every assignment left without one. What is read is exact:
-//! every writer of the file is serialised, so nothing can change between the read and the
-//! write, and two answers of one question in the same batch are decided in arrival order (the
-//! first is stored, the second is a duplicate or a conflict). The writer drives its connection
-//! directly ([`crate::sqlite_direct`]) on a thread of its own, and takes the process's SQLite
-//! write turn ([`crate::db::Db::begin_write`]) for each batch, so the sqlx writers of the same
-//! process queue fairly with it instead of polling SQLite's busy handler.
+//! position and the completion of every assignment left without one. What is read is exact: every
+//! writer of the file is serialised, so nothing can change between the read and the write, and two
+//! answers of one question in the same batch are decided in arrival order (the first is stored, the
+//! second is a duplicate or a conflict). The writer drives its connection directly
+//! ([`crate::sqlite_direct`]) on a thread of its own, and takes the process's SQLite write turn
+//! ([`crate::db::Db::begin_write`]) for each batch, so the sqlx writers of the same process queue
+//! fairly with it instead of polling SQLite's busy handler.
 //!
 //! Other SQLite writes that must not wait for their own fsync — HIT allocations, completions —
 //! run as jobs ([`AnswerWriter::job`]) in the same transaction, each in a savepoint so that its
 //! failure rolls back only its own statements; their callers too are answered after the commit.
 //!
-//! On PostgreSQL ([`postgres`]), where several servers write concurrently under READ COMMITTED,
-//! a statement's snapshot may miss another server's concurrent answer of the same assignment
-//! (both would then see the other's question as open and neither would complete the HIT), so
-//! there the caller reads its target before and the next position after the commit, and hands
-//! over only the conditional `UPDATE` ([`AnswerWriter::write`]).
+//! On PostgreSQL (`answer_writer/postgres.rs`), where several servers write concurrently under READ
+//! COMMITTED, a statement's snapshot may miss another server's concurrent answer of the same
+//! assignment (both would then see the other's question as open and neither would complete the
+//! HIT), so there the caller reads its target before and the next position after the commit, and
+//! hands over only the conditional `UPDATE` ([`AnswerWriter::write`]).
 
 mod postgres;
 mod sqlite;
@@ -147,12 +147,12 @@ fn wrong_backend(what: &str) -> AppError {
 
 impl AnswerWriter {
     /// Starts the SQLite writer on a thread of its own, with its own connection to the
-    /// database file at `path`, and its WAL sync thread (see [`sqlite`]); each batch holds
+    /// database file at `path`, and its WAL sync thread (see `answer_writer/sqlite.rs`); each batch holds
     /// `turn` (the process's SQLite write turn, see [`crate::db::Db::begin_write`]) while it
     /// writes.
     pub fn start_sqlite(path: &Path, turn: Arc<tokio::sync::Mutex<()>>) -> Result<Self> {
         let conn = crate::sqlite_direct::open(path)?;
-        // Durability comes from the sync thread's fdatasync before any reply (see [`sqlite`]).
+        // Durability comes from the sync thread's fdatasync before any reply (see `sqlite.rs`).
         conn.pragma_update(None, "synchronous", "NORMAL")?;
         let mut wal = path.as_os_str().to_owned();
         wal.push("-wal");
@@ -200,7 +200,7 @@ impl AnswerWriter {
     }
 
     /// SQLite: looks the answer's assignment and question up, checks it like
-    /// [`crate::flow::AnswerTarget::choose`] and stores it if the question has no answer yet,
+    /// `AnswerTarget::choose` ([`crate::flow`]) and stores it if the question has no answer yet,
     /// all inside the writer's transaction; replies once that transaction has committed. Exact
     /// because every SQLite writer is serialised (`BEGIN IMMEDIATE`); not for PostgreSQL (see
     /// the module comment).

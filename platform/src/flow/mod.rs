@@ -1247,8 +1247,8 @@ async fn answer_target(db: &Db, token: &str, position: i64) -> Result<AnswerTarg
 /// different one is a conflict). Completes the assignment after its last answer.
 ///
 /// On SQLite the whole answer — read, checks, write, next position, completion — happens in
-/// the answer writer's batch transaction ([`answer_in_batch`]). On PostgreSQL it is one read
-/// ([`answer_target`]), one group-committed write and a read of the next open position; the
+/// the answer writer's batch transaction (`answer_in_batch`). On PostgreSQL it is one read
+/// (`answer_target`), one group-committed write and a read of the next open position; the
 /// study is loaded only to complete a HIT.
 pub async fn answer(db: &Db, token: &str, req: &AnswerRequest) -> Result<AnswerAck> {
     if db.backend == Backend::Sqlite {
