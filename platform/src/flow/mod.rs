@@ -234,11 +234,11 @@ pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOut
         }
     }
     let training = !training_tuples(db, study.id).await?.is_empty();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(rand::rng().random());
+    let rng = rand_chacha::ChaCha8Rng::seed_from_u64(rand::rng().random());
     let controls = if training {
         Vec::new()
     } else {
-        hit_controls(db, study, &mut rng).await?
+        hit_controls(db, study).await?
     };
     let external = external.to_string();
     let new = NewAssignment {
@@ -867,7 +867,7 @@ pub async fn allocate(
     worker: WorkerId,
 ) -> Result<usize> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(rand::rng().random());
-    let controls = hit_controls(db, study, &mut rng).await?;
+    let controls = hit_controls(db, study).await?;
     if db.backend == Backend::Sqlite {
         let study = study.clone();
         return db
@@ -904,22 +904,23 @@ pub async fn allocate(
 const ACTIVATE: &str =
     "UPDATE assignments SET status = 'active' WHERE id = $1 AND status = 'training'";
 
-/// The hidden controls of a new HIT, drawn at random (read before the write transaction so
-/// that it does not hold the writer).
-async fn hit_controls(db: &Db, study: &Study, rng: &mut impl Rng) -> Result<Vec<i64>> {
+/// The hidden controls of a new HIT, drawn uniformly without replacement (read before the
+/// write transaction so that it does not hold the writer). The database draws them: a study
+/// has ~100 controls and a HIT 5, and each row a sqlx read returns is one hand-off between
+/// threads.
+async fn hit_controls(db: &Db, study: &Study) -> Result<Vec<i64>> {
     let rows = sqlx::query(
-        "SELECT id FROM tuples WHERE study_id = $1 AND kind = 'control' ORDER BY seq, id",
+        "SELECT id FROM tuples WHERE study_id = $1 AND kind = 'control' \
+         ORDER BY random() LIMIT $2",
     )
     .bind(study.id.0)
+    .bind(i64::from(study.settings.controls_per_hit))
     .fetch_all(&db.pool)
     .await?;
-    let mut controls: Vec<i64> = rows
+    Ok(rows
         .iter()
         .map(|r| r.try_get("id"))
-        .collect::<Result<_, _>>()?;
-    controls.shuffle(rng);
-    controls.truncate(study.settings.controls_per_hit as usize);
-    Ok(controls)
+        .collect::<Result<_, _>>()?)
 }
 
 /// One question of a new HIT, at its index's position.
