@@ -2,14 +2,15 @@
 //!
 //! The server ([`crate::app`]) runs in this process on `127.0.0.1:0`; simulated workers are
 //! HTTP clients (reqwest) in the same process, so both share the machine's cores. For each
-//! concurrency level it measures `/healthz` (the ceiling: routing + one `SELECT 1`) and then the
-//! answer path (`POST /api/v1/assignments/{token}/answers`, durable before acknowledgement),
-//! and prints answers/s with p50/p99 latency. Workers that finish their HIT start a new one.
+//! concurrency level it measures the answer path (`POST /api/v1/assignments/{token}/answers`,
+//! durable before acknowledgement) in a closed loop, in slices alternating with `/healthz` (the
+//! ceiling: routing + one `SELECT 1`), then in paced (open-loop) phases, and prints answers/s
+//! with p50/p99 latency. Workers that finish their HIT start a new one.
 //! The benchmark reads each HIT's questions from the database directly (it plays workers who
 //! already know which picture they will click) so that only the answer request is timed.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use clap::Args;
@@ -131,18 +132,23 @@ fn swatch(i: usize) -> NewItem {
     }
 }
 
+/// Items of the benchmark's library.
+const BENCH_ITEMS: usize = 96;
+
 pub(crate) async fn prepare(db: &Db, workers: usize, seconds: u64) -> Result<StudyId> {
     let lib = library::ensure_library(db, "bench").await?;
-    // 64 items: ~120,000 distinct triplets, enough slots for 1000 concurrent HITs.
-    if library::list_items(db, lib).await?.len() < 64 {
-        for i in 0..64 {
+    // 96 items: 428,640 distinct triplets (n(n-1)(n-2)/2: a triplet is an anchor and an
+    // unordered pair), more than the largest study below asks for.
+    let have = library::list_items(db, lib).await?.len();
+    if have < BENCH_ITEMS {
+        for i in have..BENCH_ITEMS {
             library::insert_item(db, lib, swatch(i)).await?;
         }
     }
-    // Two HITs for every worker plus headroom for ~12,000 answers/s (the SQLite closed loop
-    // reaches ~10,000 on 2 cores): running out of free slots mid-phase would turn answers into
+    // Two HITs for every worker plus headroom for ~18,000 answers/s (the SQLite closed loop
+    // reaches ~13,500 on 2 cores): running out of free slots mid-phase would turn answers into
     // refused starts and flatter the figures.
-    let tuples = (workers * 90 + (seconds as usize) * 12_000).min(400_000) as u32;
+    let tuples = (workers * 90 + (seconds as usize) * 18_000).min(400_000) as u32;
     let settings = StudySettings {
         training_questions: 0,
         tuples,
@@ -156,10 +162,65 @@ pub(crate) async fn prepare(db: &Db, workers: usize, seconds: u64) -> Result<Stu
     )
 }
 
-async fn healthz_phase(base: &str, workers: usize, seconds: u64) -> Measurement {
-    let client = reqwest::Client::new();
+/// Length of one slice of the closed-loop measurement (see [`closed_phase`]).
+const SLICE: Duration = Duration::from_secs(2);
+
+/// Requests of one kind over the slices of a phase: latencies, errors, wall and CPU time.
+#[derive(Default)]
+struct Tally {
+    lat: Vec<f64>,
+    errors: usize,
+    elapsed: Duration,
+    /// CPU seconds of the process; `None` once a reading was missing.
+    cpu: Option<f64>,
+    /// Whether any slice was added (a missing CPU reading then stays missing).
+    started: bool,
+}
+
+impl Tally {
+    /// Runs `slice` and adds what it measured: its requests, its wall time from the start
+    /// until its last request returned, and the process's CPU time meanwhile.
+    async fn add<F>(&mut self, slice: F)
+    where
+        F: std::future::Future<Output = (Vec<f64>, usize)>,
+    {
+        let (since, cpu_since) = (Instant::now(), process_cpu_seconds());
+        let (lat, errors) = slice.await;
+        self.elapsed += since.elapsed();
+        let cpu = match (cpu_since, process_cpu_seconds()) {
+            (Some(a), Some(b)) => Some(b - a),
+            _ => None,
+        };
+        self.cpu = match (self.started, self.cpu, cpu) {
+            (false, _, c) => c,
+            (true, Some(total), Some(c)) => Some(total + c),
+            _ => None,
+        };
+        self.started = true;
+        self.lat.extend(lat);
+        self.errors += errors;
+    }
+
+    fn measurement(self) -> Measurement {
+        let requests = self.lat.len() as f64;
+        let mut m = summarise(self.lat, self.errors, self.elapsed);
+        m.cpu_us = match self.cpu {
+            Some(cpu) if requests > 0.0 => cpu * 1e6 / requests,
+            _ => f64::NAN,
+        };
+        m
+    }
+}
+
+/// `workers` clients asking `/healthz` as fast as it answers, for `length`; their latencies
+/// and error count.
+async fn healthz_slice(
+    client: &reqwest::Client,
+    base: &str,
+    workers: usize,
+    length: Duration,
+) -> (Vec<f64>, usize) {
     let stop = Arc::new(AtomicBool::new(false));
-    let (start, cpu) = (Instant::now(), process_cpu_seconds());
     let mut tasks = Vec::new();
     for _ in 0..workers {
         let (client, stop, url) = (client.clone(), stop.clone(), format!("{base}/healthz"));
@@ -175,9 +236,19 @@ async fn healthz_phase(base: &str, workers: usize, seconds: u64) -> Measurement 
             (lat, errors)
         }));
     }
-    tokio::time::sleep(Duration::from_secs(seconds)).await;
+    tokio::time::sleep(length).await;
     stop.store(true, Ordering::Relaxed);
-    collect(tasks, start, cpu).await
+    let (mut lat, mut errors) = (Vec::new(), 0);
+    for t in tasks {
+        match t.await {
+            Ok((l, e)) => {
+                lat.extend(l);
+                errors += e;
+            }
+            Err(_) => errors += 1,
+        }
+    }
+    (lat, errors)
 }
 
 /// Joins the phase's workers; the rate is over the time from `since` until the last of them
@@ -283,53 +354,92 @@ impl BenchWorker {
     }
 }
 
-/// Counts an error, printing the first one of the phase (from worker 0 only, to stay readable).
-fn note_error(errors: &mut usize, worker: usize, what: &str, e: &AppError) {
-    if *errors == 0 && worker == 0 {
-        eprintln!("first {what} error: {e}");
+/// Counts an error, printing the first few of the run (from any worker: a failure that hits
+/// only some workers must still be seen).
+fn note_error(errors: &mut usize, what: &str, e: &AppError) {
+    static PRINTED: AtomicUsize = AtomicUsize::new(0);
+    if PRINTED.fetch_add(1, Ordering::Relaxed) < 5 {
+        eprintln!("{what} error: {e}");
     }
     *errors += 1;
 }
 
-/// Closed loop: every worker answers as fast as the server acknowledges.
+/// Closed loop, every worker answering as fast as the server acknowledges, interleaved with
+/// the `/healthz` ceiling: `seconds / 2` rounds of a 2-s `/healthz` slice then a 2-s answer
+/// slice, by the same number of clients. This machine's speed drifts by up to 2x within a
+/// minute (shared host), so a ceiling measured once before the answers could come from a
+/// faster or slower spell than they did; interleaved, both see the same spells. Returns the
+/// ceiling and the answer path.
 async fn closed_phase(
     db: Db,
     base: &str,
     study: StudyId,
     workers: usize,
     seconds: u64,
-) -> Measurement {
+) -> (Measurement, Measurement) {
     let client = reqwest::Client::new();
-    let stop = Arc::new(AtomicBool::new(false));
     let starts = Starts::default();
-    let (start, cpu) = (Instant::now(), process_cpu_seconds());
+    let mut pool: Vec<BenchWorker> = (0..workers)
+        .map(|w| BenchWorker::new(client.clone(), base, db.clone(), study, w, starts.clone()))
+        .collect();
+    let (mut healthz, mut answers) = (Tally::default(), Tally::default());
+    let rounds = (seconds / SLICE.as_secs()).max(1);
+    for _ in 0..rounds {
+        healthz
+            .add(healthz_slice(&client, base, workers, SLICE))
+            .await;
+        let mut back = Vec::with_capacity(workers);
+        answers.add(answer_slice(pool, SLICE, &mut back)).await;
+        pool = back;
+    }
+    let mut m = answers.measurement();
+    m.start_p99_ms = start_p99(&starts);
+    (healthz.measurement(), m)
+}
+
+/// Every worker of `pool` answers as fast as the server acknowledges for `length`; the
+/// workers (with their HITs part answered) are put back in `back` for the next slice.
+async fn answer_slice(
+    pool: Vec<BenchWorker>,
+    length: Duration,
+    back: &mut Vec<BenchWorker>,
+) -> (Vec<f64>, usize) {
+    let stop = Arc::new(AtomicBool::new(false));
     let mut tasks = Vec::new();
-    for w in 0..workers {
-        let mut worker =
-            BenchWorker::new(client.clone(), base, db.clone(), study, w, starts.clone());
+    for mut worker in pool {
         let stop = stop.clone();
         tasks.push(tokio::spawn(async move {
             let (mut lat, mut errors) = (Vec::new(), 0usize);
             while !stop.load(Ordering::Relaxed) {
                 if let Err(e) = worker.ensure_hit().await {
-                    note_error(&mut errors, w, "start", &e);
+                    note_error(&mut errors, "start", &e);
                     tokio::time::sleep(Duration::from_millis(50)).await;
                     continue;
                 }
                 let t = Instant::now();
                 match worker.answer_next().await {
                     Ok(()) => lat.push(t.elapsed().as_secs_f64() * 1e3),
-                    Err(e) => note_error(&mut errors, w, "answer", &e),
+                    Err(e) => note_error(&mut errors, "answer", &e),
                 }
             }
-            (lat, errors)
+            (worker, lat, errors)
         }));
     }
-    tokio::time::sleep(Duration::from_secs(seconds)).await;
+    tokio::time::sleep(length).await;
     stop.store(true, Ordering::Relaxed);
-    let mut m = collect(tasks, start, cpu).await;
-    m.start_p99_ms = start_p99(&starts);
-    m
+    let (mut lat, mut errors) = (Vec::new(), 0);
+    for t in tasks {
+        match t.await {
+            Ok((worker, l, e)) => {
+                back.push(worker);
+                lat.extend(l);
+                errors += e;
+            }
+            // A worker that panicked is gone from the later slices; counted as an error.
+            Err(_) => errors += 1,
+        }
+    }
+    (lat, errors)
 }
 
 /// Warm-up of the paced mode: worker `w` of `workers` starts a HIT and answers `w / workers` of
@@ -386,7 +496,7 @@ async fn paced_phase(
                 };
                 match sent {
                     Ok(()) => lat.push(due.elapsed().as_secs_f64() * 1e3),
-                    Err(e) => note_error(&mut errors, w, "paced", &e),
+                    Err(e) => note_error(&mut errors, "paced", &e),
                 }
                 due += interval;
             }
@@ -481,6 +591,10 @@ pub async fn run(args: BenchArgs) -> Result<()> {
     )?;
     outln!("start p99: HIT starts (allocations) of the phase, not counted as answers")?;
     outln!(
+        "healthz/s: the ceiling, by as many clients, in 2-s slices alternating with the closed \
+         loop's (so both see the same machine); ratio = answers/s ÷ healthz/s"
+    )?;
+    outln!(
         "cpu µs: CPU time of this process (server + clients; not PostgreSQL's own processes) \
          per answer or /healthz request; cpu r. = healthz cpu / answer cpu, the rate ratio on \
          a CPU-bound machine, which other load does not move"
@@ -501,9 +615,8 @@ pub async fn run(args: BenchArgs) -> Result<()> {
         "cpu r."
     )?;
     for &w in &args.workers {
-        let h = healthz_phase(&base, w, args.seconds).await;
         let study = prepare(&db, w, args.seconds).await?;
-        let closed = closed_phase(db.clone(), &base, study, w, args.seconds).await;
+        let (h, closed) = closed_phase(db.clone(), &base, study, w, args.seconds).await;
         row(w, "closed", &h, &closed)?;
         for &rate in &rates {
             // A fresh study per phase: the previous phase's HITs hold many of the slots.

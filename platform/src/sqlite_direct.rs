@@ -38,6 +38,20 @@ pub fn open(path: &Path) -> Result<Connection> {
     Ok(conn)
 }
 
+/// `$n`, without an allocation for the first 32 (binding runs for every parameter of every
+/// statement of the answer writer).
+fn parameter_name(n: usize) -> std::borrow::Cow<'static, str> {
+    const NAMES: [&str; 32] = [
+        "$0", "$1", "$2", "$3", "$4", "$5", "$6", "$7", "$8", "$9", "$10", "$11", "$12", "$13",
+        "$14", "$15", "$16", "$17", "$18", "$19", "$20", "$21", "$22", "$23", "$24", "$25", "$26",
+        "$27", "$28", "$29", "$30", "$31",
+    ];
+    match NAMES.get(n) {
+        Some(name) => (*name).into(),
+        None => format!("${n}").into(),
+    }
+}
+
 /// `sql` prepared (from the connection's cache) with `params` bound to `$1, $2…`.
 fn bound<'c>(
     conn: &'c Connection,
@@ -46,7 +60,7 @@ fn bound<'c>(
 ) -> Result<CachedStatement<'c>> {
     let mut stmt = conn.prepare_cached(sql)?;
     for (i, value) in params.iter().enumerate() {
-        let name = format!("${}", i + 1);
+        let name = parameter_name(i + 1);
         let index = stmt.parameter_index(&name)?.ok_or_else(|| {
             AppError::Internal(format!("statement has no parameter {name}: {sql}"))
         })?;
@@ -134,5 +148,17 @@ mod tests {
             .query_row("PRAGMA journal_mode", [], |r| r.get(0))
             .expect("pragma");
         assert_eq!(mode, "wal");
+        // Past the table of preset names: `$32` and beyond are formatted, and bound all the same.
+        let sql = format!(
+            "SELECT {}",
+            (1..=40)
+                .map(|n| format!("${n}"))
+                .collect::<Vec<_>>()
+                .join(" + ")
+        );
+        let ones = [1_i64; 40];
+        let params: Vec<&dyn ToSql> = ones.iter().map(|v| v as &dyn ToSql).collect();
+        let sum = optional_row(&conn, &sql, &params, |r| r.get::<_, i64>(0)).expect("40 params");
+        assert_eq!(sum, Some(40));
     }
 }

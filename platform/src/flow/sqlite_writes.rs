@@ -117,14 +117,17 @@ pub(super) fn allocate(
 }
 
 /// One free slot of each of the first `$4` tuples of study `$1` with `$2 < seq < $3`, as
-/// (slot, tuple, seq).
-const FREE_SLOTS: &str = "SELECT MIN(s.id), s.tuple_id, s.seq FROM slots s \
+/// (slot, tuple, seq, rowid). The rowid (SQLite's row address; the `BIGINT` id is a separate
+/// unique index over random ids) lets the claim update the row without a lookup in that index,
+/// whose pages are spread at random over the table's whole id range.
+const FREE_SLOTS: &str = "SELECT MIN(s.id), s.tuple_id, s.seq, s.rowid FROM slots s \
      WHERE s.study_id = $1 AND s.assignment_id IS NULL AND s.seq > $2 AND s.seq < $3 \
      GROUP BY s.seq ORDER BY s.seq LIMIT $4";
 
-/// Claims slot `$4` for assignment `$1` of worker `$2` at `$3`, if it is still free.
+/// Claims the slot at rowid `$4` for assignment `$1` of worker `$2` at `$3`, if it is still
+/// free (the rowid was read in the same transaction, so it still addresses that slot).
 const CLAIM_SLOT: &str = "UPDATE slots SET assignment_id = $1, worker_id = $2, claimed_at = $3 \
-     WHERE id = $4 AND assignment_id IS NULL";
+     WHERE rowid = $4 AND assignment_id IS NULL";
 
 /// One question of a HIT (`$1` assignment … `$6` ask_reasons, in the column order).
 const INSERT_QUESTION: &str = "INSERT INTO questions \
@@ -190,13 +193,13 @@ impl SlotClaim {
             conn,
             FREE_SLOTS,
             &[&self.study.0, &lower, &upper, &(limit as i64)],
-            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
+            |r| Ok(((r.get(0)?, r.get(1)?, r.get(2)?), r.get::<_, i64>(3)?)),
         )?;
-        for &(slot, _, _) in &free {
+        for &((slot, _, _), rowid) in &free {
             let done = execute(
                 conn,
                 CLAIM_SLOT,
-                &[&self.assignment.0, &self.worker.0, &self.now, &slot],
+                &[&self.assignment.0, &self.worker.0, &self.now, &rowid],
             )?;
             if done != 1 {
                 return Err(AppError::Internal(format!(
@@ -204,7 +207,7 @@ impl SlotClaim {
                 )));
             }
         }
-        Ok(free)
+        Ok(free.into_iter().map(|(claimed, _)| claimed).collect())
     }
 }
 
