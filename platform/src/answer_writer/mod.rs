@@ -29,6 +29,7 @@
 //! HIT), so there the caller reads its target before and the next position after the commit, and
 //! hands over only the conditional `UPDATE` ([`AnswerWriter::write`]).
 
+mod checkpoint;
 mod postgres;
 mod sqlite;
 
@@ -152,13 +153,6 @@ fn wrong_backend(what: &str) -> AppError {
 /// fills only as far as pages are used.
 const WRITER_CACHE_KIB: i64 = 64 * 1024;
 
-/// WAL pages after which the SQLite writer checkpoints (SQLite's default is 1,000, ~4 MB).
-/// Each answer writes one or two pages, so at 10,000 answers/s the default checkpointed about
-/// ten times a second, inside the write lock, and each checkpoint copied pages the next second
-/// rewrote (the open HITs' questions): 14% of the writer's CPU at 200 closed-loop workers,
-/// against 4% with 10,000 pages (`perf`). The WAL file grows to ~40 MB and stays that size.
-const WRITER_CHECKPOINT_PAGES: i64 = 10_000;
-
 impl AnswerWriter {
     /// Starts the SQLite writer on a thread of its own, with its own connection to the
     /// database file at `path`, and its WAL sync thread (see `answer_writer/sqlite.rs`); each batch holds
@@ -169,7 +163,22 @@ impl AnswerWriter {
         // Durability comes from the sync thread's fdatasync before any reply (see `sqlite.rs`).
         conn.pragma_update(None, "synchronous", "NORMAL")?;
         conn.pragma_update(None, "cache_size", -WRITER_CACHE_KIB)?;
-        conn.pragma_update(None, "wal_autocheckpoint", WRITER_CHECKPOINT_PAGES)?;
+        // Checkpoints run on a thread of their own (`answer_writer/checkpoint.rs`).
+        conn.pragma_update(None, "wal_autocheckpoint", 0)?;
+        let checkpoints = crate::sqlite_direct::open(path)?;
+        let (writer_alive, writer_gone) = std::sync::mpsc::channel::<()>();
+        let checkpoint_turn = turn.clone();
+        std::thread::Builder::new()
+            .name("answer-checkpoint".into())
+            .spawn(move || {
+                checkpoint::run(
+                    &checkpoints,
+                    &checkpoint_turn,
+                    &writer_gone,
+                    checkpoint::CheckpointPlan::default(),
+                )
+            })
+            .map_err(AppError::internal)?;
         let mut wal = path.as_os_str().to_owned();
         wal.push("-wal");
         let wal = std::path::PathBuf::from(wal);
@@ -181,7 +190,11 @@ impl AnswerWriter {
         let (queue, rx) = mpsc::unbounded_channel();
         std::thread::Builder::new()
             .name("answer-writer".into())
-            .spawn(move || sqlite::run(&conn, &turn, rx, &to_sync))
+            .spawn(move || {
+                // Dropped when the writer stops: the checkpoint thread's signal to finish.
+                let _alive = writer_alive;
+                sqlite::run(&conn, &turn, rx, &to_sync)
+            })
             .map_err(AppError::internal)?;
         Ok(Self { queue })
     }

@@ -1,0 +1,162 @@
+//! The SQLite writer's checkpoints, on a thread of their own.
+//!
+//! In WAL mode every commit appends its pages to the `-wal` file, and a checkpoint copies them
+//! back into the database file. SQLite's automatic checkpoint runs in the connection that
+//! committed, right after its commit: in the answer writer, the one thread every answer waits
+//! for. At 10,000 answers/s (one or two pages each) the default of 1,000 pages checkpointed
+//! about ten times a second, 14% of the writer's CPU plus two fsyncs each (`perf`, 200
+//! closed-loop workers); a larger threshold made them rarer but each one a longer stall (a
+//! worse p99). So the writer's automatic checkpoint is off, and this thread, on a connection of
+//! its own, copies the pages in `PASSIVE` mode, which takes no lock the writer needs: the
+//! writer goes on committing meanwhile, on the other core.
+//!
+//! A WAL is rewritten from its start ("restarted") only by a writer that finds every frame
+//! copied and no reader on them, which a checkpoint running beside a busy writer never
+//! leaves behind. So once the WAL holds [`CheckpointPlan::restart_frames`], the next
+//! checkpoint runs holding the process's write turn, between two batches: it copies only the
+//! few frames written since the previous checkpoint, and the writer's next transaction
+//! restarts the WAL (unless a reader still holds an older snapshot; then the next round
+//! tries again).
+//!
+//! Durability is unchanged: a checkpoint syncs the WAL before it copies and the database file
+//! after (see `sqlite.rs` for why the answers are durable when their replies go out).
+
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::time::Duration;
+
+use rusqlite::Connection;
+
+use crate::error::Result;
+
+/// When the checkpoint thread runs.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct CheckpointPlan {
+    /// Time between two checkpoints.
+    pub interval: Duration,
+    /// WAL frames (pages) from which a checkpoint is run between two of the writer's batches,
+    /// so that the WAL restarts.
+    pub restart_frames: i64,
+}
+
+impl Default for CheckpointPlan {
+    /// Every 0.1 s; the WAL restarts once it holds 2,000 frames (~8 MB). At 200 closed-loop
+    /// workers the writer appends ~40,000 frames/s (about three pages per answer: its question
+    /// row, its entry in the open-questions index, and its share of a HIT start's slot
+    /// claims), so that is every round and the WAL file stays near 4,000 frames (twice that
+    /// when a reader's snapshot keeps one restart from happening); at 1,000 answers/s it is
+    /// about every 0.7 s.
+    fn default() -> Self {
+        Self {
+            interval: Duration::from_millis(100),
+            restart_frames: 2_000,
+        }
+    }
+}
+
+/// Checkpoints the database of `conn` every `plan.interval` until `writer_gone` says the writer
+/// has stopped, then once more. `turn` is the process's write turn (held by each of the
+/// writer's batches).
+pub(super) fn run(
+    conn: &Connection,
+    turn: &tokio::sync::Mutex<()>,
+    writer_gone: &Receiver<()>,
+    plan: CheckpointPlan,
+) {
+    loop {
+        let last = match writer_gone.recv_timeout(plan.interval) {
+            Err(RecvTimeoutError::Timeout) => false,
+            // The writer only ever drops its sender.
+            Ok(()) | Err(RecvTimeoutError::Disconnected) => true,
+        };
+        match passive(conn) {
+            Ok(frames) if frames >= plan.restart_frames && !last => {
+                let _turn = turn.blocking_lock();
+                if let Err(e) = passive(conn) {
+                    eprintln!("error: checkpoint before a WAL restart: {e}");
+                }
+            }
+            Ok(_) => {}
+            Err(e) => eprintln!("error: checkpoint: {e}"),
+        }
+        if last {
+            break;
+        }
+    }
+}
+
+/// One `PASSIVE` checkpoint; returns the frames in the WAL (copied or not).
+fn passive(conn: &Connection) -> Result<i64> {
+    // Columns: busy (always 0 in PASSIVE mode), frames in the WAL, frames copied.
+    Ok(conn.query_row("PRAGMA wal_checkpoint(PASSIVE)", [], |r| r.get(1))?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sqlite_direct::execute;
+
+    /// A writer committing page-sized rows without automatic checkpoints, each transaction
+    /// holding the turn: with the checkpoint thread the WAL file stays under half the pages
+    /// written (without restarts it holds them all), and every row is in the database.
+    #[test]
+    fn the_wal_restarts_under_a_busy_writer() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("c.db");
+        rusqlite::Connection::open(&path).expect("create");
+        let writer = crate::sqlite_direct::open(&path).expect("open");
+        writer
+            .pragma_update(None, "wal_autocheckpoint", 0)
+            .expect("pragma");
+        // As the answer writer: the commit writes the WAL, its fsync happens elsewhere.
+        writer
+            .pragma_update(None, "synchronous", "NORMAL")
+            .expect("pragma");
+        execute(
+            &writer,
+            "CREATE TABLE t (id INTEGER PRIMARY KEY, v BLOB)",
+            &[],
+        )
+        .expect("table");
+        let turn = std::sync::Arc::new(tokio::sync::Mutex::new(()));
+        let plan = CheckpointPlan {
+            interval: Duration::from_millis(10),
+            restart_frames: 100,
+        };
+        let (alive, gone) = std::sync::mpsc::channel();
+        let checkpoints = crate::sqlite_direct::open(&path).expect("open");
+        let thread_turn = turn.clone();
+        let thread = std::thread::spawn(move || run(&checkpoints, &thread_turn, &gone, plan));
+        let wal = dir.path().join("c.db-wal");
+        let (mut largest, rows) = (0, 4_000_i64);
+        for i in 0..rows {
+            let _turn = turn.blocking_lock();
+            execute(&writer, "BEGIN IMMEDIATE", &[]).expect("begin");
+            execute(
+                &writer,
+                "INSERT INTO t (id, v) VALUES ($1, zeroblob(3000))",
+                &[&i],
+            )
+            .expect("insert");
+            execute(&writer, "COMMIT", &[]).expect("commit");
+            drop(_turn);
+            largest = largest.max(std::fs::metadata(&wal).expect("wal").len());
+            if i % 50 == 0 {
+                std::thread::sleep(Duration::from_millis(2));
+            }
+        }
+        drop(alive);
+        thread.join().expect("checkpoint thread");
+        // Each row fills a 4-KiB page: without restarts the WAL would hold 4,000 frames.
+        let frame = 4096 + 24;
+        assert!(
+            largest < 2_000 * frame,
+            "the WAL grew to {largest} bytes for {rows} pages"
+        );
+        drop(writer);
+        let check = rusqlite::Connection::open(&path).expect("reopen");
+        let n: i64 = check
+            .query_row("SELECT count(*) FROM t", [], |r| r.get(0))
+            .expect("count");
+        assert_eq!(n, rows);
+    }
+}
