@@ -155,7 +155,8 @@ const WRITER_CACHE_KIB: i64 = 64 * 1024;
 
 impl AnswerWriter {
     /// Starts the SQLite writer on a thread of its own, with its own connection to the
-    /// database file at `path`, and its WAL sync thread (see `answer_writer/sqlite.rs`); each batch holds
+    /// database file at `path`, its WAL sync thread (see `answer_writer/sqlite.rs`) and its
+    /// checkpoint thread (`answer_writer/checkpoint.rs`); each batch holds
     /// `turn` (the process's SQLite write turn, see [`crate::db::Db::begin_write`]) while it
     /// writes.
     pub fn start_sqlite(path: &Path, turn: Arc<tokio::sync::Mutex<()>>) -> Result<Self> {
