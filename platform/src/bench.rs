@@ -651,6 +651,33 @@ mod tests {
         assert!(cpu_per_request(Some(b), 10.0) >= 0.0);
     }
 
+    /// Slices add up: every request, the wall time of each slice (not the gaps between them)
+    /// and a CPU time per request that is a real reading.
+    #[tokio::test]
+    async fn slices_add_up() {
+        let mut tally = Tally::default();
+        for lat in [vec![1.0, 2.0], vec![3.0]] {
+            tally
+                .add(async {
+                    tokio::time::sleep(Duration::from_millis(20)).await;
+                    (lat, 1)
+                })
+                .await;
+            tokio::time::sleep(Duration::from_millis(300)).await;
+        }
+        let m = tally.measurement();
+        assert_eq!(m.errors, 2);
+        assert_eq!(m.p50_ms, 2.0);
+        // 3 requests in two slices of at least 20 ms, not over the 640 ms they spanned.
+        assert!(
+            m.per_second > 3.0 / 0.6 && m.per_second <= 3.0 / 0.04,
+            "{}",
+            m.per_second
+        );
+        assert!(m.cpu_us >= 0.0, "{}", m.cpu_us);
+        assert!(Tally::default().measurement().cpu_us.is_nan());
+    }
+
     #[test]
     fn percentiles() {
         let m = summarise(

@@ -3,9 +3,9 @@
 //! In WAL mode every commit appends its pages to the `-wal` file, and a checkpoint copies them
 //! back into the database file. SQLite's automatic checkpoint runs in the connection that
 //! committed, right after its commit: in the answer writer, the one thread every answer waits
-//! for. At 10,000 answers/s (one or two pages each) the default of 1,000 pages checkpointed
-//! about ten times a second, 14% of the writer's CPU plus two fsyncs each (`perf`, 200
-//! closed-loop workers); a larger threshold made them rarer but each one a longer stall (a
+//! for. At 13,000 answers/s (about three pages each) the default of 1,000 pages checkpointed
+//! dozens of times a second: 14% of the writer's CPU plus two fsyncs each (`perf`, 200
+//! closed-loop workers). A larger threshold made them rarer but each one a longer stall (a
 //! worse p99). So the writer's automatic checkpoint is off, and this thread, on a connection of
 //! its own, copies the pages in `PASSIVE` mode, which takes no lock the writer needs: the
 //! writer goes on committing meanwhile, on the other core.
