@@ -166,15 +166,23 @@ pub(crate) async fn prepare(db: &Db, workers: usize, seconds: u64) -> Result<Stu
 const SLICE: Duration = Duration::from_secs(2);
 
 /// Requests of one kind over the slices of a phase: latencies, errors, wall and CPU time.
-#[derive(Default)]
 struct Tally {
     lat: Vec<f64>,
     errors: usize,
     elapsed: Duration,
     /// CPU seconds of the process; `None` once a reading was missing.
     cpu: Option<f64>,
-    /// Whether any slice was added (a missing CPU reading then stays missing).
-    started: bool,
+}
+
+impl Default for Tally {
+    fn default() -> Self {
+        Self {
+            lat: Vec::new(),
+            errors: 0,
+            elapsed: Duration::ZERO,
+            cpu: Some(0.0),
+        }
+    }
 }
 
 impl Tally {
@@ -187,16 +195,8 @@ impl Tally {
         let (since, cpu_since) = (Instant::now(), process_cpu_seconds());
         let (lat, errors) = slice.await;
         self.elapsed += since.elapsed();
-        let cpu = match (cpu_since, process_cpu_seconds()) {
-            (Some(a), Some(b)) => Some(b - a),
-            _ => None,
-        };
-        self.cpu = match (self.started, self.cpu, cpu) {
-            (false, _, c) => c,
-            (true, Some(total), Some(c)) => Some(total + c),
-            _ => None,
-        };
-        self.started = true;
+        let cpu = cpu_since.zip(process_cpu_seconds()).map(|(a, b)| b - a);
+        self.cpu = self.cpu.zip(cpu).map(|(total, c)| total + c);
         self.lat.extend(lat);
         self.errors += errors;
     }
@@ -233,22 +233,32 @@ async fn healthz_slice(
                     _ => errors += 1,
                 }
             }
-            (lat, errors)
+            ((), lat, errors)
         }));
     }
     tokio::time::sleep(length).await;
     stop.store(true, Ordering::Relaxed);
-    let (mut lat, mut errors) = (Vec::new(), 0);
+    let (_, lat, errors) = join_slice(tasks).await;
+    (lat, errors)
+}
+
+/// Joins the tasks of a slice: what each gives back, all latencies and the error count (a
+/// task that panicked counts as one error).
+async fn join_slice<W>(
+    tasks: Vec<tokio::task::JoinHandle<(W, Vec<f64>, usize)>>,
+) -> (Vec<W>, Vec<f64>, usize) {
+    let (mut back, mut lat, mut errors) = (Vec::with_capacity(tasks.len()), Vec::new(), 0);
     for t in tasks {
         match t.await {
-            Ok((l, e)) => {
+            Ok((w, l, e)) => {
+                back.push(w);
                 lat.extend(l);
                 errors += e;
             }
             Err(_) => errors += 1,
         }
     }
-    (lat, errors)
+    (back, lat, errors)
 }
 
 /// Joins the phase's workers; the rate is over the time from `since` until the last of them
@@ -427,18 +437,9 @@ async fn answer_slice(
     }
     tokio::time::sleep(length).await;
     stop.store(true, Ordering::Relaxed);
-    let (mut lat, mut errors) = (Vec::new(), 0);
-    for t in tasks {
-        match t.await {
-            Ok((worker, l, e)) => {
-                back.push(worker);
-                lat.extend(l);
-                errors += e;
-            }
-            // A worker that panicked is gone from the later slices; counted as an error.
-            Err(_) => errors += 1,
-        }
-    }
+    // A worker that panicked is gone from the later slices.
+    let (workers, lat, errors) = join_slice(tasks).await;
+    back.extend(workers);
     (lat, errors)
 }
 

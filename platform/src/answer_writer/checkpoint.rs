@@ -21,12 +21,14 @@
 //! Durability is unchanged: a checkpoint syncs the WAL before it copies and the database file
 //! after (see `sqlite.rs` for why the answers are durable when their replies go out).
 
-use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
 use std::time::Duration;
 
 use rusqlite::Connection;
 
-use crate::error::Result;
+use crate::error::{AppError, Result};
 
 /// When the checkpoint thread runs.
 #[derive(Debug, Clone, Copy)]
@@ -51,6 +53,18 @@ impl Default for CheckpointPlan {
             restart_frames: 2_000,
         }
     }
+}
+
+/// Starts the checkpoint thread of the database file at `path`, on a connection of its own,
+/// with the default plan. It stops once the returned sender is dropped (the writer holds it).
+pub(super) fn spawn(path: &Path, turn: Arc<tokio::sync::Mutex<()>>) -> Result<Sender<()>> {
+    let conn = crate::sqlite_direct::open(path)?;
+    let (writer_alive, writer_gone) = std::sync::mpsc::channel();
+    std::thread::Builder::new()
+        .name("answer-checkpoint".into())
+        .spawn(move || run(&conn, &turn, &writer_gone, CheckpointPlan::default()))
+        .map_err(AppError::internal)?;
+    Ok(writer_alive)
 }
 
 /// Checkpoints the database of `conn` every `plan.interval` until `writer_gone` says the writer

@@ -166,20 +166,7 @@ impl AnswerWriter {
         conn.pragma_update(None, "cache_size", -WRITER_CACHE_KIB)?;
         // Checkpoints run on a thread of their own (`answer_writer/checkpoint.rs`).
         conn.pragma_update(None, "wal_autocheckpoint", 0)?;
-        let checkpoints = crate::sqlite_direct::open(path)?;
-        let (writer_alive, writer_gone) = std::sync::mpsc::channel::<()>();
-        let checkpoint_turn = turn.clone();
-        std::thread::Builder::new()
-            .name("answer-checkpoint".into())
-            .spawn(move || {
-                checkpoint::run(
-                    &checkpoints,
-                    &checkpoint_turn,
-                    &writer_gone,
-                    checkpoint::CheckpointPlan::default(),
-                )
-            })
-            .map_err(AppError::internal)?;
+        let writer_alive = checkpoint::spawn(path, turn.clone())?;
         let mut wal = path.as_os_str().to_owned();
         wal.push("-wal");
         let wal = std::path::PathBuf::from(wal);
