@@ -9,7 +9,7 @@ use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 use sqlx::Row;
 
-use crate::db::{Db, now_ms};
+use crate::db::{Db, WriteTx, now_ms};
 use crate::error::{AppError, Result};
 use crate::ids::{ItemId, LibraryId, SlotId, StudyId, TupleId, random_token};
 use crate::library::{self, ItemInfo};
@@ -424,6 +424,7 @@ pub async fn create(
     .bind(now_ms())
     .execute(&mut *tx)
     .await?;
+    let main_ids = free_tuple_block(&mut tx, main.len()).await?;
     let mut summary = PoolSummary::default();
     for (kind, tuples) in [
         ("main", &main),
@@ -431,7 +432,11 @@ pub async fn create(
         ("training", &training),
     ] {
         for (seq, t) in tuples.iter().enumerate() {
-            let tuple = TupleId::generate();
+            let tuple = if kind == "main" {
+                TupleId(main_ids.start + seq as i64)
+            } else {
+                outside(&main_ids)
+            };
             let expected = (kind != "main").then_some("b");
             sqlx::query(
                 "INSERT INTO tuples (id, study_id, seq, kind, a, b, c, expected, origin) \
@@ -470,6 +475,47 @@ pub async fn create(
     summary.controls = controls.len();
     summary.training = training.len();
     Ok((id, summary))
+}
+
+/// `n` consecutive tuple ids, none of them taken, for a study's main tuples.
+///
+/// Main tuples are numbered in `seq` order because a HIT claims the slots of consecutive `seq`s
+/// (see `SlotClaim`), and each claim writes an entry of the slots' `(tuple_id, worker_id)`
+/// unique index: with consecutive ids a HIT's ~45 claims share one or two index pages instead
+/// of writing ~45 pages spread over the index (each then written to the WAL at commit and
+/// again by a checkpoint). Tuple ids never reach a worker (questions are addressed by
+/// position), so their order reveals nothing about which questions are controls, whose ids
+/// stay random. The base is random, like every id, and checked against the ids already taken
+/// inside the study's write transaction.
+async fn free_tuple_block(tx: &mut WriteTx, n: usize) -> Result<std::ops::Range<i64>> {
+    let n = n as i64;
+    for _ in 0..16 {
+        let base = rand::rng().random_range(1..(1_i64 << 53) - n);
+        let taken: i64 = sqlx::query(
+            "SELECT CAST(COUNT(*) AS BIGINT) AS n FROM tuples WHERE id >= $1 AND id < $2",
+        )
+        .bind(base)
+        .bind(base + n)
+        .fetch_one(&mut **tx)
+        .await?
+        .try_get("n")?;
+        if taken == 0 {
+            return Ok(base..base + n);
+        }
+    }
+    Err(AppError::Internal(
+        "no free block of tuple ids in 16 random tries".into(),
+    ))
+}
+
+/// A random tuple id outside the main tuples' `block`.
+fn outside(block: &std::ops::Range<i64>) -> TupleId {
+    loop {
+        let id = TupleId::generate();
+        if !block.contains(&id.0) {
+            return id;
+        }
+    }
 }
 
 /// Adds a curated control (or training) triplet given by item names; `b` is the expected answer.
