@@ -109,6 +109,9 @@ mod tests {
     use super::*;
     use crate::sqlite_direct::execute;
 
+    /// A WAL frame: a 24-byte header and a 4,096-byte page (SQLite's default page size).
+    const FRAME_BYTES: u64 = 24 + 4_096;
+
     /// The salts of the WAL header, which change each time the WAL restarts.
     fn wal_salts(wal: &std::path::Path) -> Option<[u8; 8]> {
         use std::io::Read;
@@ -120,72 +123,149 @@ mod tests {
         header[16..24].try_into().ok()
     }
 
-    /// A writer committing without pause and without automatic checkpoints, each transaction
-    /// holding the turn: a checkpoint beside it never leaves every frame copied, so the WAL
-    /// restarts only through the checkpoint taken between two transactions. With the
-    /// checkpoint thread it restarts again and again (counted by its header's salts; the time
-    /// limit is generous because the checkpoint's fsyncs are slow on a busy disk), and every
-    /// row is in the database afterwards.
-    #[test]
-    fn the_wal_restarts_under_a_busy_writer() {
-        let dir = tempfile::tempdir().expect("temp dir");
-        let path = dir.path().join("c.db");
-        rusqlite::Connection::open(&path).expect("create");
-        let writer = crate::sqlite_direct::open(&path).expect("open");
-        writer
-            .pragma_update(None, "wal_autocheckpoint", 0)
-            .expect("pragma");
-        // As the answer writer: the commit writes the WAL, its fsync happens elsewhere.
-        writer
-            .pragma_update(None, "synchronous", "NORMAL")
-            .expect("pragma");
-        execute(
-            &writer,
-            "CREATE TABLE t (id INTEGER PRIMARY KEY, v BLOB)",
-            &[],
-        )
-        .expect("table");
-        let turn = std::sync::Arc::new(tokio::sync::Mutex::new(()));
-        let plan = CheckpointPlan {
-            interval: Duration::from_millis(10),
-            restart_frames: 100,
-        };
-        let (alive, gone) = std::sync::mpsc::channel();
-        let checkpoints = crate::sqlite_direct::open(&path).expect("open");
-        let thread_turn = turn.clone();
-        let thread = std::thread::spawn(move || run(&checkpoints, &thread_turn, &gone, plan));
-        let wal = dir.path().join("c.db-wal");
-        let deadline = std::time::Instant::now() + Duration::from_secs(30);
-        let (mut rows, mut restarts, mut salts) = (0_i64, 0, None);
-        while (restarts < 5 || rows < 1_000) && std::time::Instant::now() < deadline {
-            let _turn = turn.blocking_lock();
-            execute(&writer, "BEGIN IMMEDIATE", &[]).expect("begin");
+    /// A writer committing one ~3 KB row per transaction, without automatic checkpoints, each
+    /// transaction holding the write turn as the answer writer's batches do, beside the
+    /// checkpoint thread (10 ms rounds, restart from 100 frames). A checkpoint beside it never
+    /// leaves every frame copied, so the WAL restarts only through the checkpoint taken
+    /// between two transactions.
+    struct BusyWriter {
+        dir: tempfile::TempDir,
+        writer: Connection,
+        turn: Arc<tokio::sync::Mutex<()>>,
+        alive: Sender<()>,
+        thread: std::thread::JoinHandle<()>,
+        rows: i64,
+        salts: Option<[u8; 8]>,
+    }
+
+    impl BusyWriter {
+        fn start() -> Self {
+            let dir = tempfile::tempdir().expect("temp dir");
+            let path = dir.path().join("c.db");
+            rusqlite::Connection::open(&path).expect("create");
+            let writer = crate::sqlite_direct::open(&path).expect("open");
+            writer
+                .pragma_update(None, "wal_autocheckpoint", 0)
+                .expect("pragma");
+            // As the answer writer: the commit writes the WAL, its fsync happens elsewhere.
+            writer
+                .pragma_update(None, "synchronous", "NORMAL")
+                .expect("pragma");
             execute(
                 &writer,
-                "INSERT INTO t (id, v) VALUES ($1, zeroblob(3000))",
-                &[&rows],
+                "CREATE TABLE t (id INTEGER PRIMARY KEY, v BLOB)",
+                &[],
             )
-            .expect("insert");
-            execute(&writer, "COMMIT", &[]).expect("commit");
-            drop(_turn);
-            rows += 1;
-            let now = wal_salts(&wal);
-            if salts.is_some() && now != salts {
-                restarts += 1;
+            .expect("table");
+            let turn = Arc::new(tokio::sync::Mutex::new(()));
+            let plan = CheckpointPlan {
+                interval: Duration::from_millis(10),
+                restart_frames: 100,
+            };
+            let (alive, gone) = std::sync::mpsc::channel();
+            let checkpoints = crate::sqlite_direct::open(&path).expect("open");
+            let thread_turn = turn.clone();
+            let thread = std::thread::spawn(move || run(&checkpoints, &thread_turn, &gone, plan));
+            Self {
+                dir,
+                writer,
+                turn,
+                alive,
+                thread,
+                rows: 0,
+                salts: None,
             }
-            salts = now;
         }
-        drop(alive);
-        thread.join().expect("checkpoint thread");
+
+        fn path(&self, file: &str) -> std::path::PathBuf {
+            self.dir.path().join(file)
+        }
+
+        /// Commits until at least `restarts` WAL restarts (counted by the header's salts) and
+        /// `rows` rows, or until `limit` is over (generous: the checkpoint's fsyncs are slow
+        /// on a busy disk); returns the restarts seen.
+        fn commit_until(&mut self, restarts: usize, rows: i64, limit: Duration) -> usize {
+            let deadline = std::time::Instant::now() + limit;
+            let (mut seen, mut written) = (0, 0);
+            while (seen < restarts || written < rows) && std::time::Instant::now() < deadline {
+                let turn = self.turn.blocking_lock();
+                execute(&self.writer, "BEGIN IMMEDIATE", &[]).expect("begin");
+                execute(
+                    &self.writer,
+                    "INSERT INTO t (id, v) VALUES ($1, zeroblob(3000))",
+                    &[&self.rows],
+                )
+                .expect("insert");
+                execute(&self.writer, "COMMIT", &[]).expect("commit");
+                drop(turn);
+                self.rows += 1;
+                written += 1;
+                let now = wal_salts(&self.path("c.db-wal"));
+                if self.salts.is_some() && now != self.salts {
+                    seen += 1;
+                }
+                self.salts = now;
+            }
+            seen
+        }
+
+        /// Stops the checkpoint thread and checks that every row committed is in the database.
+        fn finish(self) {
+            drop(self.alive);
+            self.thread.join().expect("checkpoint thread");
+            drop(self.writer);
+            let check = rusqlite::Connection::open(self.dir.path().join("c.db")).expect("reopen");
+            let n: i64 = check
+                .query_row("SELECT count(*) FROM t", [], |r| r.get(0))
+                .expect("count");
+            assert_eq!(n, self.rows);
+        }
+    }
+
+    /// With the checkpoint thread, the WAL of a writer that never pauses restarts again and
+    /// again.
+    #[test]
+    fn the_wal_restarts_under_a_busy_writer() {
+        let mut busy = BusyWriter::start();
+        let restarts = busy.commit_until(5, 1_000, Duration::from_secs(30));
         assert!(
             restarts >= 5,
-            "{restarts} WAL restarts in {rows} transactions"
+            "{restarts} WAL restarts in {} transactions",
+            busy.rows
         );
-        drop(writer);
-        let check = rusqlite::Connection::open(&path).expect("reopen");
-        let n: i64 = check
-            .query_row("SELECT count(*) FROM t", [], |r| r.get(0))
-            .expect("count");
-        assert_eq!(n, rows);
+        busy.finish();
+    }
+
+    /// A reader holding one snapshot (a long export) keeps the checkpoints from copying the
+    /// frames written after it, so the WAL grows while it lasts (at most one restart, when the
+    /// snapshot read the database file alone); once it ends the WAL restarts again.
+    #[test]
+    fn a_long_reader_delays_wal_restarts_until_it_ends() {
+        let mut busy = BusyWriter::start();
+        assert!(busy.commit_until(1, 0, Duration::from_secs(30)) >= 1);
+
+        let reader = crate::sqlite_direct::open(&busy.path("c.db")).expect("open");
+        execute(&reader, "BEGIN", &[]).expect("begin");
+        let count = || -> i64 {
+            reader
+                .query_row("SELECT count(*) FROM t", [], |r| r.get(0))
+                .expect("count")
+        };
+        let before = count();
+        let held = 400;
+        let restarts = busy.commit_until(0, held, Duration::from_secs(30));
+        assert!(restarts <= 1, "{restarts} WAL restarts under a reader");
+        let wal_bytes = std::fs::metadata(busy.path("c.db-wal")).expect("wal").len();
+        // Each transaction appends at least its new leaf page.
+        assert!(
+            wal_bytes >= 32 + held as u64 * FRAME_BYTES,
+            "the WAL held {wal_bytes} bytes after {held} transactions under a reader"
+        );
+        assert_eq!(count(), before, "the reader keeps its snapshot");
+        execute(&reader, "COMMIT", &[]).expect("end the read");
+
+        let restarts = busy.commit_until(3, 0, Duration::from_secs(30));
+        assert!(restarts >= 3, "{restarts} WAL restarts after the reader");
+        busy.finish();
     }
 }
