@@ -86,10 +86,13 @@ typed_id!(
     ModelId
 );
 
-/// A random id in `1..2^53`.
+/// Ids stay below 2^53, the largest integer a JavaScript number holds exactly.
+pub const ID_LIMIT: i64 = 1 << 53;
+
+/// A random id in `1..ID_LIMIT`.
 pub fn random_id() -> i64 {
     use rand::Rng;
-    rand::rng().random_range(1..(1_i64 << 53))
+    rand::rng().random_range(1..ID_LIMIT)
 }
 
 /// A random 128-bit secret as 32 hex characters (assignment tokens, session tokens, CSRF).
@@ -108,7 +111,7 @@ mod tests {
     fn ids_are_positive_and_js_safe() {
         for _ in 0..1000 {
             let id = StudyId::generate();
-            assert!(id.0 > 0 && id.0 < (1 << 53));
+            assert!(id.0 > 0 && id.0 < ID_LIMIT);
         }
         assert_eq!("42".parse::<ItemId>(), Ok(ItemId(42)));
         assert_eq!(random_token().len(), 32);

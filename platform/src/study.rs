@@ -11,7 +11,7 @@ use sqlx::Row;
 
 use crate::db::{Db, WriteTx, now_ms};
 use crate::error::{AppError, Result};
-use crate::ids::{ItemId, LibraryId, SlotId, StudyId, TupleId, random_token};
+use crate::ids::{ID_LIMIT, ItemId, LibraryId, SlotId, StudyId, TupleId, random_token};
 use crate::library::{self, ItemInfo};
 
 /// Which MTurk site a study's HITs live on.
@@ -490,7 +490,7 @@ pub async fn create(
 async fn free_tuple_block(tx: &mut WriteTx, n: usize) -> Result<std::ops::Range<i64>> {
     let n = n as i64;
     for _ in 0..16 {
-        let base = rand::rng().random_range(1..(1_i64 << 53) - n);
+        let base = rand::rng().random_range(1..ID_LIMIT - n);
         let taken: i64 = sqlx::query(
             "SELECT CAST(COUNT(*) AS BIGINT) AS n FROM tuples WHERE id >= $1 AND id < $2",
         )

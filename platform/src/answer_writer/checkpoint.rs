@@ -3,12 +3,12 @@
 //! In WAL mode every commit appends its pages to the `-wal` file, and a checkpoint copies them
 //! back into the database file. SQLite's automatic checkpoint runs in the connection that
 //! committed, right after its commit: in the answer writer, the one thread every answer waits
-//! for. At 13,000 answers/s (about three pages each, with random tuple ids) the default of 1,000 pages checkpointed
-//! dozens of times a second: 14% of the writer's CPU plus two fsyncs each (`perf`, 200
-//! closed-loop workers). A larger threshold made them rarer but each one a longer stall (a
-//! worse p99). So the writer's automatic checkpoint is off, and this thread, on a connection of
-//! its own, copies the pages in `PASSIVE` mode, which takes no lock the writer needs: the
-//! writer goes on committing meanwhile, on the other core.
+//! for. At 13,000 answers/s (about three pages each, with random tuple ids) the default of
+//! 1,000 pages checkpointed dozens of times a second: 14% of the writer's CPU plus two fsyncs
+//! each (`perf`, 200 closed-loop workers). A larger threshold made them rarer but each one a
+//! longer stall (a worse p99). So the writer's automatic checkpoint is off, and this thread, on
+//! a connection of its own, copies the pages in `PASSIVE` mode, which takes no lock the writer
+//! needs: the writer goes on committing meanwhile, on the other core.
 //!
 //! A WAL is rewritten from its start ("restarted") only by a writer that finds every frame
 //! copied and no reader on them, which a checkpoint running beside a busy writer never
@@ -44,9 +44,9 @@ impl Default for CheckpointPlan {
     /// Every 0.1 s; the WAL restarts once it holds 2,000 frames (~8 MB). At 200 closed-loop
     /// workers the writer appended ~40,000 frames/s (about three pages per answer: its question
     /// row, its entry in the open-questions index, and its share of a HIT start's slot claims;
-    /// measured while tuple ids were random, which spread the claims), so that is every round and the WAL file stays near 4,000 frames (twice that
-    /// when a reader's snapshot keeps one restart from happening); at 1,000 answers/s it is
-    /// about every 0.7 s.
+    /// measured while tuple ids were random, which spread the claims), so that is every round
+    /// and the WAL file stays near 4,000 frames (twice that when a reader's snapshot keeps one
+    /// restart from happening); at 1,000 answers/s it is about every 0.7 s.
     fn default() -> Self {
         Self {
             interval: Duration::from_millis(100),
