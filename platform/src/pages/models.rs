@@ -1,0 +1,164 @@
+//! Training the style metric from the study page, and the stored model reports.
+
+use axum::Router;
+use axum::extract::State;
+use axum::http::header;
+use axum::response::{IntoResponse, Redirect, Response};
+use axum::routing::{get, post};
+use serde::Deserialize;
+
+use crate::AppState;
+use crate::admin::Admin;
+use crate::error::{AppError, Result};
+use crate::extract::{ApiForm, ApiPath};
+use crate::ids::{ModelId, StudyId};
+use crate::study::{self};
+use crate::train::{self, ModelSummary, TrainOptions};
+
+use super::page;
+
+/// Training and the stored reports.
+pub(super) fn routes() -> Router<AppState> {
+    Router::new()
+        .route("/admin/studies/{study}/train", post(admin_train))
+        .route(
+            "/admin/studies/{study}/models/{model}/report",
+            get(admin_report_redirect),
+        )
+        .route(
+            "/admin/studies/{study}/models/{model}/report/",
+            get(admin_report_index),
+        )
+        .route(
+            "/admin/studies/{study}/models/{model}/report/{file}",
+            get(admin_report_file),
+        )
+}
+use super::time::utc_minute;
+
+/// A model as the dashboard lists it (numbers formatted).
+pub(super) struct ModelRow {
+    pub(super) id: ModelId,
+    pub(super) status: String,
+    pub(super) message: String,
+    pub(super) started: String,
+    pub(super) triplets: String,
+    pub(super) lambda: String,
+    pub(super) nonzero: String,
+    pub(super) train_accuracy: String,
+    pub(super) uniform_accuracy: String,
+    pub(super) cv_accuracy: String,
+}
+
+impl From<ModelSummary> for ModelRow {
+    fn from(m: ModelSummary) -> Self {
+        let pct = |v: Option<f64>| v.map_or_else(String::new, |v| format!("{:.1}%", 100.0 * v));
+        Self {
+            id: m.id,
+            status: m.status,
+            message: m.message.unwrap_or_default(),
+            started: utc_minute(m.started_at),
+            triplets: m.triplets.map_or_else(String::new, |v| v.to_string()),
+            lambda: m.lambda.map_or_else(String::new, |v| format!("{v:.4}")),
+            nonzero: m.nonzero.map_or_else(String::new, |v| v.to_string()),
+            train_accuracy: pct(m.train_accuracy),
+            uniform_accuracy: pct(m.uniform_accuracy),
+            cv_accuracy: pct(m.cv_accuracy),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+struct TrainForm {
+    csrf: Option<String>,
+    /// Empty: λ by cross-validation.
+    lambda: Option<String>,
+}
+
+async fn admin_train(
+    State(state): State<AppState>,
+    admin: std::result::Result<Admin, AppError>,
+    ApiPath(id): ApiPath<StudyId>,
+    form: std::result::Result<ApiForm<TrainForm>, AppError>,
+) -> Response {
+    page(
+        async {
+            let admin = admin?;
+            let ApiForm(f) = form?;
+            admin.check_csrf(f.csrf.as_deref())?;
+            let lambda =
+                match f.lambda.as_deref().map(str::trim) {
+                    None | Some("") => None,
+                    Some(text) => Some(text.parse::<f64>().map_err(|_| {
+                        AppError::BadRequest(format!("λ: {text:?} is not a number"))
+                    })?),
+                };
+            let s = study::load(&state.db, id).await?;
+            let opts = TrainOptions {
+                lambda,
+                ..TrainOptions::default()
+            };
+            train::start(&state.db, &s, opts).await?;
+            Ok(Redirect::to(&format!("/admin/studies/{id}#models")).into_response())
+        }
+        .await,
+    )
+}
+
+async fn admin_report_redirect(
+    admin: std::result::Result<Admin, AppError>,
+    ApiPath((id, model)): ApiPath<(StudyId, ModelId)>,
+) -> Response {
+    page(admin.map(|_| {
+        Redirect::permanent(&format!("/admin/studies/{id}/models/{model}/report/")).into_response()
+    }))
+}
+
+/// A stored report file. The report is static (no script); the CSP keeps it that way.
+async fn report_file(
+    state: &AppState,
+    id: StudyId,
+    model: ModelId,
+    file: &str,
+) -> Result<Response> {
+    let (content_type, bytes) = train::file(&state.db, id, model, file).await?;
+    Ok((
+        [
+            (header::CONTENT_TYPE, content_type),
+            (
+                header::CONTENT_SECURITY_POLICY,
+                "default-src 'none'; img-src 'self'; style-src 'unsafe-inline'",
+            ),
+        ],
+        bytes,
+    )
+        .into_response())
+}
+
+async fn admin_report_index(
+    State(state): State<AppState>,
+    admin: std::result::Result<Admin, AppError>,
+    ApiPath((id, model)): ApiPath<(StudyId, ModelId)>,
+) -> Response {
+    page(
+        async {
+            admin?;
+            report_file(&state, id, model, "index.html").await
+        }
+        .await,
+    )
+}
+
+async fn admin_report_file(
+    State(state): State<AppState>,
+    admin: std::result::Result<Admin, AppError>,
+    ApiPath((id, model, file)): ApiPath<(StudyId, ModelId, String)>,
+) -> Response {
+    page(
+        async {
+            admin?;
+            report_file(&state, id, model, &file).await
+        }
+        .await,
+    )
+}
