@@ -46,6 +46,7 @@ pub mod extract;
 pub mod flow;
 pub mod ids;
 pub mod library;
+pub mod markdown;
 pub mod pages;
 pub mod qc;
 pub mod sqlite_direct;

@@ -1,17 +1,31 @@
 //! `platform`: the rating-study server and its command line (see `platform --help`).
 
-use clap::Parser;
+use std::process::ExitCode;
 
-fn main() -> anyhow::Result<()> {
+use clap::Parser;
+use platform::error::AppError;
+
+fn main() -> ExitCode {
     let cli = platform::cli::Cli::parse();
-    let runtime = tokio::runtime::Builder::new_multi_thread()
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
         .enable_all()
-        .build()?;
-    match runtime.block_on(platform::cli::run(cli)) {
-        // The reader went away (`| head`): like other Unix tools, stop without a message.
-        Err(platform::error::AppError::Stdout(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => {
-            Ok(())
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: cannot start the async runtime: {e}");
+            return ExitCode::FAILURE;
         }
-        other => Ok(other?),
+    };
+    match runtime.block_on(platform::cli::run(cli)) {
+        Ok(()) => ExitCode::SUCCESS,
+        // The reader went away (`| head`): like other Unix tools, stop without a message.
+        Err(AppError::Stdout(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+        // One line, the message a user can act on: an error is not a crash, so no backtrace
+        // even when RUST_BACKTRACE is set in the environment.
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
     }
 }

@@ -38,8 +38,17 @@ impl MturkMode {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct StudySettings {
-    /// Text shown to workers before they start.
+    /// Text shown to workers before they start (plain text; also MTurk's preview).
     pub description: String,
+    /// Instructions shown on the start page (Markdown without raw HTML; `![caption](item:NAME)`
+    /// shows the library item NAME).
+    pub instructions: String,
+    /// Show a worked example (a practice triplet with its answer) under the instructions, as
+    /// the thesis does before the test (Fig. 5.2, left).
+    pub show_worked_example: bool,
+    /// Informed-consent text (Markdown without raw HTML). Not empty: workers must tick "I
+    /// agree" before they start; declining ends the task and is recorded.
+    pub consent: String,
     /// Questions in one HIT, controls included (paper: 50).
     pub questions_per_hit: u32,
     /// Hidden control questions in one HIT (paper: 5).
@@ -62,6 +71,9 @@ pub struct StudySettings {
     pub prolific_completion_code: Option<String>,
     /// Prolific screen-out code for workers who give up the training.
     pub prolific_screenout_code: Option<String>,
+    /// Prolific code for participants who do not consent (a code set up on Prolific to ask
+    /// them to return the study); without it they are asked to return the study.
+    pub prolific_noconsent_code: Option<String>,
     /// Worker ids (MTurk/Prolific/direct) that may not take part.
     pub blocked_workers: Vec<String>,
     /// Workers who took part in these studies may not take part.
@@ -70,10 +82,28 @@ pub struct StudySettings {
     pub seed: u64,
 }
 
+/// The instructions of a new study: what the task is and what "style" means here.
+pub const DEFAULT_INSTRUCTIONS: &str = "\
+Each question shows one picture on top, the **reference**, and two pictures below it.
+
+**Choose the picture below that is more similar in _style_ to the reference** — not the one \
+that shows the same thing. Style is *how* a picture is drawn:
+
+- **colours** — palette, saturation, brightness;
+- **shading** — flat colour or gradients and highlights;
+- **outlines** — thick, thin or none;
+- **shapes** — round or angular, simple or detailed.
+
+Click or tap a picture (on a keyboard: ← or 1 for the left one, → or 2 for the right one). \
+There are no trick questions: go with your first impression.";
+
 impl Default for StudySettings {
     fn default() -> Self {
         Self {
             description: "Compare the style of clip art.".into(),
+            instructions: DEFAULT_INSTRUCTIONS.into(),
+            show_worked_example: true,
+            consent: String::new(),
             questions_per_hit: 50,
             controls_per_hit: 5,
             training_questions: 3,
@@ -85,6 +115,7 @@ impl Default for StudySettings {
             mturk_mode: MturkMode::Sandbox,
             prolific_completion_code: None,
             prolific_screenout_code: None,
+            prolific_noconsent_code: None,
             blocked_workers: Vec::new(),
             exclude_workers_of: Vec::new(),
             seed: 1,
@@ -98,6 +129,17 @@ impl StudySettings {
         let bad = |m: String| Err(AppError::BadRequest(m));
         if self.description.len() > 5000 {
             return bad("description: at most 5000 characters".into());
+        }
+        for (field, text) in [
+            ("instructions", &self.instructions),
+            ("consent", &self.consent),
+        ] {
+            if text.chars().count() > crate::markdown::MAX_MARKDOWN_CHARS {
+                return bad(format!(
+                    "{field}: at most {} characters",
+                    crate::markdown::MAX_MARKDOWN_CHARS
+                ));
+            }
         }
         if !(1..=500).contains(&self.questions_per_hit) {
             return bad(format!(
@@ -141,6 +183,7 @@ impl StudySettings {
         for code in [
             &self.prolific_completion_code,
             &self.prolific_screenout_code,
+            &self.prolific_noconsent_code,
         ]
         .into_iter()
         .flatten()

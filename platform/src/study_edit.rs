@@ -30,6 +30,13 @@ use crate::study::{MturkMode, StudySettings};
 pub struct SettingsPatch {
     /// Text shown to workers before they start (any time).
     pub description: Option<String>,
+    /// Instructions shown on the start page, Markdown (any time).
+    pub instructions: Option<String>,
+    /// Show a worked example under the instructions (any time).
+    pub show_worked_example: Option<bool>,
+    /// Informed-consent text, Markdown; empty: no consent step (any time; workers who
+    /// already agreed keep their record of the text they agreed to).
+    pub consent: Option<String>,
     /// Questions in one HIT, controls included (only while no assignment exists).
     pub questions_per_hit: Option<u32>,
     /// Hidden controls in one HIT (only while no assignment exists).
@@ -56,6 +63,10 @@ pub struct SettingsPatch {
     #[serde(deserialize_with = "nullable")]
     #[schema(value_type = Option<String>, nullable = true)]
     pub prolific_screenout_code: Option<Option<String>>,
+    /// Prolific no-consent code; `null` removes it (any time).
+    #[serde(deserialize_with = "nullable")]
+    #[schema(value_type = Option<String>, nullable = true)]
+    pub prolific_noconsent_code: Option<Option<String>>,
     /// The whole list of blocked worker ids (any time; a blocked worker cannot start or resume,
     /// and a HIT they have open in this study ends: further answers are refused).
     pub blocked_workers: Option<Vec<String>>,
@@ -109,8 +120,15 @@ pub fn apply_patch(
                 and sandbox banner follow it); create a new study for the other site";
     let training = "the training set was drawn from it when the study was created; \
                     create a new study instead";
-    let fields: [(&str, When, Option<Value>); 15] = [
+    let fields: [(&str, When, Option<Value>); 19] = [
         ("description", When::Always, opt(&patch.description)),
+        ("instructions", When::Always, opt(&patch.instructions)),
+        (
+            "show_worked_example",
+            When::Always,
+            opt(&patch.show_worked_example),
+        ),
+        ("consent", When::Always, opt(&patch.consent)),
         (
             "questions_per_hit",
             When::BeforeStart(shape),
@@ -157,6 +175,11 @@ pub fn apply_patch(
             "prolific_screenout_code",
             When::Always,
             opt(&patch.prolific_screenout_code),
+        ),
+        (
+            "prolific_noconsent_code",
+            When::Always,
+            opt(&patch.prolific_noconsent_code),
         ),
         ("blocked_workers", When::Always, opt(&patch.blocked_workers)),
         (

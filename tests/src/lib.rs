@@ -66,4 +66,5 @@ pub fn learner(args: &[&std::ffi::OsStr]) -> Output {
         .expect("run learner")
 }
 
+pub mod browser;
 pub mod platform;

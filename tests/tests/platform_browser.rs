@@ -2,135 +2,13 @@
 //! chromium-driver over WebDriver). Screenshots are kept under `target/e2e-artifacts/`.
 
 use std::collections::HashMap;
-use std::net::TcpListener;
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
+use e2e::browser::*;
 use e2e::platform::*;
 use e2e::workspace_root;
-use fantoccini::{Client, ClientBuilder, Locator};
+use fantoccini::{Client, Locator};
 use serde_json::json;
-
-/// A running chromedriver and its port.
-struct Driver(Child, u16);
-
-impl Drop for Driver {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("free port")
-}
-
-fn tool(name: &str) -> Option<PathBuf> {
-    ["/usr/bin", "/usr/local/bin"]
-        .iter()
-        .map(|d| Path::new(d).join(name))
-        .find(|p| p.exists())
-}
-
-async fn browser(profile: &Path) -> Option<(Driver, Client)> {
-    let (Some(chromium), Some(chromedriver)) = (tool("chromium"), tool("chromedriver")) else {
-        if std::env::var("CI").is_ok_and(|v| v == "true" || v == "1") {
-            panic!("chromium and chromedriver are required in CI (scripts/test installs them)");
-        }
-        eprintln!("chromium/chromedriver not installed: skipping the browser test");
-        return None;
-    };
-    let port = free_port();
-    let driver = Driver(
-        Command::new(chromedriver)
-            .arg(format!("--port={port}"))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start chromedriver"),
-        port,
-    );
-    let caps = json!({
-        // The browser's console, where Chromium reports Content-Security-Policy violations.
-        "goog:loggingPrefs": {"browser": "ALL"},
-        "goog:chromeOptions": {
-            "binary": chromium,
-            "args": [
-                "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                "--window-size=1100,1000", format!("--user-data-dir={}", profile.display()),
-            ]
-        }
-    });
-    let caps: fantoccini::wd::Capabilities = caps.as_object().expect("object").clone();
-    let connector = hyper_util::client::legacy::connect::HttpConnector::new();
-    for _ in 0..100 {
-        match ClientBuilder::new(connector.clone())
-            .capabilities(caps.clone())
-            .connect(&format!("http://127.0.0.1:{port}"))
-            .await
-        {
-            Ok(c) => return Some((driver, c)),
-            Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
-        }
-    }
-    panic!("could not open a WebDriver session");
-}
-
-/// The browser console's Content-Security-Policy violation reports since the last call
-/// (chromedriver's log endpoint; reading the log empties it).
-async fn csp_violations(c: &Client, driver: &Driver) -> Vec<String> {
-    let session = c
-        .session_id()
-        .await
-        .expect("session id")
-        .expect("a WebDriver session");
-    let (status, log) = send(
-        client()
-            .post(format!(
-                "http://127.0.0.1:{}/session/{session}/se/log",
-                driver.1
-            ))
-            .json(&json!({"type": "browser"})),
-    )
-    .await;
-    assert_eq!(status, 200, "browser log: {log}");
-    log["value"]
-        .as_array()
-        .expect("log entries")
-        .iter()
-        .filter_map(|e| e["message"].as_str())
-        .filter(|m| m.contains("Content Security Policy"))
-        .map(str::to_string)
-        .collect()
-}
-
-async fn shot(c: &Client, dir: &Path, name: &str) {
-    let png = c.screenshot().await.expect("screenshot");
-    std::fs::write(dir.join(name), png).expect("write screenshot");
-}
-
-fn id_from_src(src: &str) -> i64 {
-    src.rsplit('/')
-        .next()
-        .and_then(|f| f.strip_suffix(".png"))
-        .and_then(|n| n.parse().ok())
-        .unwrap_or_else(|| panic!("image src {src}"))
-}
-
-async fn attr(c: &Client, css: &str, name: &str) -> String {
-    c.find(Locator::Css(css))
-        .await
-        .unwrap_or_else(|e| panic!("{css}: {e}"))
-        .attr(name)
-        .await
-        .expect("attr")
-        .unwrap_or_default()
-}
 
 fn honest(reference: i64, left: i64, right: i64, styles: &HashMap<i64, String>) -> i64 {
     let q = json!({"reference": {"id": reference}, "left": {"id": left}, "right": {"id": right}});
@@ -140,7 +18,7 @@ fn honest(reference: i64, left: i64, right: i64, styles: &HashMap<i64, String>) 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn worker_and_admin_flows_in_chromium() {
     let profile = tempfile::tempdir().expect("profile dir");
-    let Some((driver, c)) = browser(profile.path()).await else {
+    let Some((driver, c)) = browser(profile.path(), Viewport::Desktop).await else {
         return;
     };
     let artifacts = workspace_root().join("target/e2e-artifacts/platform-browser");
@@ -260,7 +138,7 @@ async fn worker_and_admin_flows_in_chromium() {
                     .execute("return getComputedStyle(document.body).maxWidth;", vec![])
                     .await
                     .expect("script");
-                assert_eq!(width, json!("960px"), "style.css did not apply");
+                assert_eq!(width, json!("1100px"), "style.css did not apply");
             }
             mark(&c).await;
             if n % 2 == 0 {
@@ -693,31 +571,4 @@ async fn wait_rows(c: &Client, ok: impl Fn(&[WorkerRowShown]) -> bool) -> Vec<Wo
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
     panic!("the worker table did not update: {rows:?}");
-}
-
-/// Marks the current document; [`wait_navigated`] waits until a new one has loaded.
-async fn mark(c: &Client) {
-    c.execute("window.__old = true; return null;", vec![])
-        .await
-        .expect("mark");
-}
-
-async fn wait_navigated(c: &Client) {
-    // Up to 20 s (a page load is milliseconds on an idle machine; CI shares it with the rest).
-    for _ in 0..800 {
-        let done = c
-            .execute(
-                "return window.__old === undefined && document.readyState === 'complete';",
-                vec![],
-            )
-            .await
-            .ok()
-            .and_then(|v| v.as_bool())
-            .unwrap_or(false);
-        if done {
-            return;
-        }
-        tokio::time::sleep(Duration::from_millis(25)).await;
-    }
-    panic!("the page did not change");
 }

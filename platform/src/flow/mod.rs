@@ -17,11 +17,18 @@ use utoipa::ToSchema;
 use crate::answer_writer::{AnswerSubmit, AnswerWrite, Written};
 use crate::db::{Backend, Db, now_ms};
 use crate::error::{AppError, Result};
-use crate::ids::{AssignmentId, ItemId, StudyId, TupleId, WorkerId, random_token};
+use crate::ids::{AssignmentId, ItemId, StudyId, WorkerId, random_token};
 use crate::qc;
 use crate::study::{self, MturkMode, Study};
 
+mod consent;
+mod resume;
 mod sqlite_writes;
+mod training;
+
+pub use consent::consent_version;
+pub use resume::{Existing, existing};
+pub use training::{TrainingReview, WorkedExample, worked_example};
 
 pub(crate) use sqlite_writes::complete_in_sqlite;
 
@@ -43,7 +50,8 @@ pub enum Source {
 }
 
 impl Source {
-    fn as_str(self) -> &'static str {
+    /// As stored.
+    pub fn as_str(self) -> &'static str {
         match self {
             Self::Mturk => "mturk",
             Self::Prolific => "prolific",
@@ -103,6 +111,10 @@ pub struct StartRequest {
     pub prolific_session_id: Option<String>,
     /// Optional demographics.
     pub demographics: Option<Demographics>,
+    /// The answer to the study's informed-consent form, when it has one (`consent` in the
+    /// settings): `true` agrees and starts, `false` declines (recorded; the task ends with the
+    /// no-consent hand-back). Required for a first start of such a study; ignored on resume.
+    pub consent: Option<bool>,
 }
 
 /// What starting did.
@@ -233,7 +245,32 @@ pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOut
             });
         }
     }
-    let training = !training_tuples(db, study.id).await?.is_empty();
+    let consent = match (consent::required(study), req.consent) {
+        (false, _) => None,
+        (true, Some(true)) => Some(consent_version(&study.settings.consent)),
+        (true, Some(false)) => {
+            let new = NewAssignment {
+                id: AssignmentId::generate(),
+                token: random_token(),
+                study: study.id,
+                source,
+                sandbox,
+                status: "declined",
+                demographics: serde_json::to_string(&demographics).map_err(AppError::internal)?,
+                consent: Some(("declined", consent_version(&study.settings.consent))),
+                req: req.clone(),
+            };
+            return consent::decline(db, study, new, external).await;
+        }
+        (true, None) => {
+            return Err(AppError::BadRequest(
+                "consent: this study asks for informed consent first; send consent: true to \
+                 agree or false to decline"
+                    .into(),
+            ));
+        }
+    };
+    let training = !training::pool(db, study.id).await?.is_empty();
     let rng = rand_chacha::ChaCha8Rng::seed_from_u64(rand::rng().random());
     let controls = if training {
         Vec::new()
@@ -249,6 +286,7 @@ pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOut
         sandbox,
         status: if training { "training" } else { "active" },
         demographics: serde_json::to_string(&demographics).map_err(AppError::internal)?,
+        consent: consent.map(|version| ("agreed", version)),
         req,
     };
     let allocation = Allocation {
@@ -415,9 +453,12 @@ struct NewAssignment {
     study: StudyId,
     source: Source,
     sandbox: bool,
-    /// `training`, or `active` when the study has no training (the HIT is allocated with it).
+    /// `training`, or `active` when the study has no training (the HIT is allocated with it),
+    /// or `declined`.
     status: &'static str,
     demographics: String,
+    /// The consent record: (`agreed` or `declined`, version of the text shown).
+    consent: Option<(&'static str, String)>,
     req: StartRequest,
 }
 
@@ -458,7 +499,19 @@ impl NewAssignment {
             .bind(now_ms())
             .execute(&mut *tx)
             .await?;
-        Ok(inserted.rows_affected() == 1)
+        if inserted.rows_affected() != 1 {
+            return Ok(false);
+        }
+        if let Some((answer, version)) = &self.consent {
+            sqlx::query(consent::RECORD)
+                .bind(*answer)
+                .bind(version)
+                .bind(now_ms())
+                .bind(self.id.0)
+                .execute(&mut *tx)
+                .await?;
+        }
+        Ok(true)
     }
 }
 
@@ -613,34 +666,9 @@ fn view(position: i64, a: i64, b: i64, c: i64, swapped: bool) -> QuestionView {
     }
 }
 
-/// A training tuple (id, a, b, c); the expected answer is `b`.
-async fn training_tuples(db: &Db, study: StudyId) -> Result<Vec<(TupleId, i64, i64, i64)>> {
-    let rows = sqlx::query(
-        "SELECT id, a, b, c FROM tuples WHERE study_id = $1 AND kind = 'training' ORDER BY seq, id",
-    )
-    .bind(study.0)
-    .fetch_all(&db.pool)
-    .await?;
-    rows.iter()
-        .map(|r| {
-            Ok((
-                TupleId(r.try_get("id")?),
-                r.try_get("a")?,
-                r.try_get("b")?,
-                r.try_get("c")?,
-            ))
-        })
-        .collect()
-}
-
-/// The training questions of an assignment.
+/// The questions of an assignment's next training attempt.
 pub async fn training_questions(db: &Db, a: &Assignment) -> Result<Vec<QuestionView>> {
-    Ok(training_tuples(db, a.study)
-        .await?
-        .into_iter()
-        .enumerate()
-        .map(|(i, (t, x, y, z))| view(i as i64, x, y, z, mix(a.id.0, t.0)))
-        .collect())
+    training::questions(db, &study::load(db, a.study).await?, a).await
 }
 
 /// One training answer.
@@ -692,7 +720,7 @@ pub async fn submit_training(
             a.status
         )));
     }
-    let tuples = training_tuples(db, a.study).await?;
+    let tuples = training::next_attempt(db, study, a).await?;
     if answers.len() != tuples.len() {
         return Err(AppError::BadRequest(format!(
             "expected {} training answers, got {}",
@@ -1513,12 +1541,16 @@ pub enum Handback {
     },
     /// Show the code; nothing else to do.
     Code,
+    /// Nothing to submit: the worker returns the task on their crowd platform (MTurk HIT,
+    /// Prolific study) or closes the page (a participant who did not consent).
+    Return,
 }
 
 /// Everything the worker client needs to continue: the single source of truth for resume.
 #[derive(Debug, Clone, Serialize, ToSchema)]
 pub struct AssignmentState {
-    /// `training`, `active`, `completed`, `screened_out`.
+    /// `training`, `active`, `completed`, `screened_out`, `declined` (no consent) or
+    /// `abandoned` (expired).
     pub status: String,
     /// `mturk`, `prolific`, `direct`.
     pub source: String,
@@ -1532,8 +1564,15 @@ pub struct AssignmentState {
     pub training_attempts: i64,
     /// Training attempts allowed.
     pub max_training_attempts: i64,
+    /// The questions of the last training attempt with the right answers (after a failed
+    /// attempt; empty before the first).
+    pub last_training_attempt: Vec<TrainingReview>,
     /// A question whose questionnaire is pending.
     pub reasons_for: Option<i64>,
+    /// That question as it was shown.
+    pub reasons_question: Option<QuestionView>,
+    /// The picture the worker chose in it.
+    pub reasons_choice: Option<ItemId>,
     /// The next question to answer.
     pub question: Option<QuestionView>,
     /// Images of the question after it (to preload).
@@ -1560,7 +1599,10 @@ pub async fn state(db: &Db, study: &Study, a: &Assignment) -> Result<AssignmentS
         training: Vec::new(),
         training_attempts: a.training_attempts,
         max_training_attempts: i64::from(study.settings.max_training_attempts),
+        last_training_attempt: Vec::new(),
         reasons_for: None,
+        reasons_question: None,
+        reasons_choice: None,
         question: None,
         preload: Vec::new(),
         answered: 0,
@@ -1570,8 +1612,12 @@ pub async fn state(db: &Db, study: &Study, a: &Assignment) -> Result<AssignmentS
         handback: None,
     };
     match a.status.as_str() {
-        "training" => st.training = training_questions(db, a).await?,
+        "training" => {
+            st.training = training::questions(db, study, a).await?;
+            st.last_training_attempt = training::last_attempt(db, a).await?;
+        }
         "abandoned" => {}
+        "declined" => st.handback = Some(consent::handback(study, a)),
         "screened_out" => {
             let code = code(&study.secret, "screenout", a.id);
             st.handback = Some(handback(study, a, &code, true));
@@ -1596,7 +1642,17 @@ pub async fn state(db: &Db, study: &Study, a: &Assignment) -> Result<AssignmentS
                     let pending = r.try_get::<i64, _>("ask_reasons")? != 0
                         && r.try_get::<Option<String>, _>("reasons")?.is_none();
                     if pending && st.reasons_for.is_none() {
+                        let (b, c): (i64, i64) = (r.try_get("b")?, r.try_get("c")?);
                         st.reasons_for = Some(position);
+                        st.reasons_question = Some(view(
+                            position,
+                            r.try_get("a")?,
+                            b,
+                            c,
+                            r.try_get::<i64, _>("swapped")? != 0,
+                        ));
+                        st.reasons_choice =
+                            Some(ItemId(if choice.as_deref() == Some("b") { b } else { c }));
                     }
                 } else if upcoming.len() < 2 {
                     upcoming.push(view(

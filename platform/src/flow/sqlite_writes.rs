@@ -91,7 +91,17 @@ impl NewAssignment {
                 &now_ms(),
             ],
         )?;
-        Ok(inserted == 1)
+        if inserted != 1 {
+            return Ok(false);
+        }
+        if let Some((answer, version)) = &self.consent {
+            execute(
+                conn,
+                super::consent::RECORD,
+                &[answer, version, &now_ms(), &self.id.0],
+            )?;
+        }
+        Ok(true)
     }
 }
 
