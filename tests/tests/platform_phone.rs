@@ -218,8 +218,28 @@ async fn visit(
             assert_on_screen(&c, "#right").await;
             if answered == 0 {
                 shot(&c, &shots, "04-question.png").await;
+                // A fast double input (tap left, then right before the page changes): the
+                // first one is the answer.
+                let url = c.current_url().await.expect("url");
+                let token = url.path().trim_start_matches("/a/").to_string();
+                let position: i64 = attr(&c, "input[name=position]", "value")
+                    .await
+                    .parse()
+                    .expect("position");
+                let left: i64 = attr(&c, "#left", "value").await.parse().expect("id");
+                mark(&c).await;
+                c.execute(
+                    "document.getElementById('left').click(); \
+                     document.getElementById('right').click(); return null;",
+                    vec![],
+                )
+                .await
+                .expect("double input");
+                wait_navigated(&c).await;
+                assert_eq!(stored_choice(&server.db_url, &token, position).await, left);
+            } else {
+                click(&c, "#left").await;
             }
-            click(&c, "#left").await;
             answered += 1;
         } else if c.find(Locator::Id("reasons-form")).await.is_ok() {
             assert_fits(&c, "reasons").await;
@@ -335,6 +355,23 @@ async fn visit(
     assert_fits(&c, "admin study page").await;
     shot(&c, &shots, "08-admin-study.png").await;
     c.close().await.expect("close");
+}
+
+/// The item chosen at `position` of the assignment with `token`, as stored.
+async fn stored_choice(db_url: &str, token: &str, position: i64) -> i64 {
+    sqlx::any::install_default_drivers();
+    let pool = sqlx::AnyPool::connect(db_url).await.expect("connect");
+    let (choice, b, c): (String, i64, i64) = sqlx::query_as(
+        "SELECT q.choice, t.b, t.c FROM questions q JOIN tuples t ON t.id = q.tuple_id \
+         JOIN assignments a ON a.id = q.assignment_id WHERE a.token = $1 AND q.position = $2",
+    )
+    .bind(token)
+    .bind(position)
+    .fetch_one(&pool)
+    .await
+    .expect("the answer is stored");
+    pool.close().await;
+    if choice == "b" { b } else { c }
 }
 
 /// Starts a participant through the JSON API (consenting); returns the token.
