@@ -483,7 +483,7 @@ async fn worker_and_admin_flows_in_chromium() {
         mark(&c).await;
         // The live refresh may replace the row between finding and clicking: then find again.
         let css = format!(
-            "#workers tr[data-assignment=\"{}\"] form button",
+            "#workers tr[data-assignment=\"{}\"] form.decision-form button",
             new_row.assignment
         );
         let mut clicked = false;
@@ -656,7 +656,7 @@ async fn worker_rows(c: &Client) -> Vec<WorkerRowShown> {
         .execute(
             "return Array.from(document.querySelectorAll('#workers tr[data-assignment]')).map(r => \
              [r.dataset.assignment, r.cells[2].textContent, r.cells[3].textContent, \
-              r.cells[4].textContent, r.querySelectorAll('form button').length]);",
+              r.cells[4].textContent, r.querySelectorAll('form.decision-form button').length]);",
             vec![],
         )
         .await

@@ -1,0 +1,599 @@
+//! Exports of a study: `triplets.csv` in the learner's format (`a,b,c,q,worker,tuple_id`, q = 1
+//! when A was judged closer to B, plus `worker_id`), `reasons.csv`, `workers.csv`,
+//! `assignments.csv`, `bonuses.csv`, the payment files (`mturk_decisions.csv` for MTurk's batch
+//! approve/reject upload, `mturk_bonuses.csv` for `aws mturk send-bonus`,
+//! `prolific_bonuses.csv` for Prolific's bulk bonus), `external_question.xml` and
+//! `manifest.json` (settings, items in stable order, the data dictionary of every column, and
+//! notes on what each option does to each file).
+//!
+//! Every file names a worker by the id their crowd platform uses (`worker_id`), as the study
+//! page does; the `pseudonymous` option swaps it for a pseudonym and leaves the payment files
+//! out, for data shared outside the team.
+
+use std::collections::{BTreeMap, HashMap};
+
+use serde::{Deserialize, Serialize};
+use sqlx::Row;
+
+use crate::bonus;
+use crate::dashboard::pseudonym;
+use crate::db::Db;
+use crate::error::{AppError, Result};
+use crate::ids::WorkerId;
+use crate::library;
+use crate::pages::time::iso8601;
+use crate::study::Study;
+
+mod columns;
+mod table;
+
+pub use table::neutralise;
+
+/// Which HITs and questions the analysis files hold beyond the default (the main questions of
+/// completed, non-rejected HITs), and whether workers are named by a pseudonym. The same
+/// options apply to triplets.csv, reasons.csv, workers.csv, assignments.csv and bonuses.csv
+/// (the manifest's notes say what each does to each file); the payment files ignore them.
+#[derive(Debug, Clone, Copy, Default, Deserialize, utoipa::ToSchema, utoipa::IntoParams)]
+#[into_params(parameter_in = Query)]
+pub struct ExportOptions {
+    /// Also export answers to hidden controls (tuple_id prefixed `control:`) and count them.
+    #[serde(default)]
+    pub include_controls: bool,
+    /// Also export rejected HITs.
+    #[serde(default)]
+    pub include_rejected: bool,
+    /// Also export HITs not completed (in training, answering, screened out, expired, blocked).
+    #[serde(default)]
+    pub include_incomplete: bool,
+    /// Name workers by a pseudonym (HMAC of the study secret) instead of their platform id,
+    /// and leave out the payment files: for sharing data outside the research team.
+    #[serde(default)]
+    pub pseudonymous: bool,
+}
+
+impl ExportOptions {
+    /// The options as they are named in links and forms, with whether each is set.
+    pub fn flags(&self) -> [(&'static str, bool); 4] {
+        [
+            ("include_controls", self.include_controls),
+            ("include_rejected", self.include_rejected),
+            ("include_incomplete", self.include_incomplete),
+            ("pseudonymous", self.pseudonymous),
+        ]
+    }
+
+    /// The query string of an export link carrying these options (`""` for the defaults).
+    pub fn query(&self) -> String {
+        let set: Vec<String> = self
+            .flags()
+            .iter()
+            .filter(|(_, on)| *on)
+            .map(|(name, _)| format!("{name}=true"))
+            .collect();
+        if set.is_empty() {
+            String::new()
+        } else {
+            format!("?{}", set.join("&"))
+        }
+    }
+
+    /// Whether an analysis file holds a HIT with this status and decision.
+    fn includes(&self, status: &str, decision: Option<&str>) -> bool {
+        (status == "completed" || self.include_incomplete)
+            && (decision != Some("rejected") || self.include_rejected)
+    }
+}
+
+/// Names of the export files, in the order they are written.
+pub const FILES: &[&str] = &[
+    "triplets.csv",
+    "reasons.csv",
+    "workers.csv",
+    "assignments.csv",
+    "bonuses.csv",
+    "mturk_decisions.csv",
+    "mturk_bonuses.csv",
+    "prolific_bonuses.csv",
+    "external_question.xml",
+    "manifest.json",
+];
+
+/// Whether `file` holds the workers' real ids to pay them (left out of pseudonymous exports).
+pub fn is_payment_file(file: &str) -> bool {
+    columns::PAYMENT_FILES.contains(&file)
+}
+
+/// One HIT of the study, as the exports need it.
+struct Hit {
+    id: i64,
+    /// The worker as the files name them (platform id or pseudonym).
+    worker: String,
+    /// The platform id, always (payment files).
+    external: String,
+    source: String,
+    sandbox: i64,
+    status: String,
+    decision: Option<String>,
+    training_attempts: i64,
+    demographics: serde_json::Value,
+    started_at: i64,
+    completed_at: Option<i64>,
+    external_assignment: Option<String>,
+    hit_id: Option<String>,
+}
+
+/// Question counts of one HIT.
+#[derive(Default)]
+struct Counts {
+    main: i64,
+    main_answered: i64,
+    all: i64,
+    all_answered: i64,
+    control_errors: i64,
+}
+
+async fn hits(db: &Db, study: &Study, opts: ExportOptions) -> Result<Vec<Hit>> {
+    let rows = sqlx::query(
+        "SELECT a.id, a.worker_id, w.external_id, a.source, a.sandbox, a.status, a.decision, \
+           a.training_attempts, a.demographics, a.started_at, a.completed_at, \
+           a.external_assignment, a.hit_id \
+         FROM assignments a JOIN workers w ON w.id = a.worker_id WHERE a.study_id = $1 \
+         ORDER BY a.started_at, a.id",
+    )
+    .bind(study.id.0)
+    .fetch_all(&db.pool)
+    .await?;
+    rows.iter()
+        .map(|r| {
+            let external: String = r.try_get("external_id")?;
+            Ok(Hit {
+                id: r.try_get("id")?,
+                worker: if opts.pseudonymous {
+                    pseudonym(study, WorkerId(r.try_get("worker_id")?))
+                } else {
+                    external.clone()
+                },
+                external,
+                source: r.try_get("source")?,
+                sandbox: r.try_get("sandbox")?,
+                status: r.try_get("status")?,
+                decision: r.try_get("decision")?,
+                training_attempts: r.try_get("training_attempts")?,
+                demographics: r
+                    .try_get::<Option<String>, _>("demographics")?
+                    .and_then(|d| serde_json::from_str(&d).ok())
+                    .unwrap_or_default(),
+                started_at: r.try_get("started_at")?,
+                completed_at: r.try_get("completed_at")?,
+                external_assignment: r.try_get("external_assignment")?,
+                hit_id: r.try_get("hit_id")?,
+            })
+        })
+        .collect()
+}
+
+async fn counts(db: &Db, study: &Study) -> Result<HashMap<i64, Counts>> {
+    let rows = sqlx::query(
+        "SELECT q.assignment_id, \
+           CAST(SUM(CASE WHEN t.kind = 'main' THEN 1 ELSE 0 END) AS BIGINT) AS main, \
+           CAST(SUM(CASE WHEN t.kind = 'main' AND q.choice IS NOT NULL THEN 1 ELSE 0 END) \
+             AS BIGINT) AS main_answered, \
+           CAST(COUNT(*) AS BIGINT) AS total, \
+           CAST(COUNT(q.choice) AS BIGINT) AS answered, \
+           CAST(SUM(CASE WHEN t.kind = 'control' \
+             AND (q.choice IS NULL OR q.choice <> t.expected) THEN 1 ELSE 0 END) AS BIGINT) \
+             AS control_errors \
+         FROM questions q JOIN tuples t ON t.id = q.tuple_id \
+           JOIN assignments a ON a.id = q.assignment_id \
+         WHERE a.study_id = $1 GROUP BY q.assignment_id",
+    )
+    .bind(study.id.0)
+    .fetch_all(&db.pool)
+    .await?;
+    rows.iter()
+        .map(|r| {
+            Ok((
+                r.try_get("assignment_id")?,
+                Counts {
+                    main: r.try_get("main")?,
+                    main_answered: r.try_get("main_answered")?,
+                    all: r.try_get("total")?,
+                    all_answered: r.try_get("answered")?,
+                    control_errors: r.try_get("control_errors")?,
+                },
+            ))
+        })
+        .collect()
+}
+
+/// The answered questions' rows of triplets.csv and reasons.csv.
+async fn answers(
+    db: &Db,
+    study: &Study,
+    opts: ExportOptions,
+    hits: &HashMap<i64, &Hit>,
+    names: &BTreeMap<i64, String>,
+) -> Result<(Vec<Vec<String>>, Vec<Vec<String>>)> {
+    let name = |id: i64| names.get(&id).cloned().unwrap_or_else(|| id.to_string());
+    let rows = sqlx::query(
+        "SELECT q.assignment_id, q.choice, q.reasons, q.reason_text, t.id AS tuple_id, \
+         t.kind, t.a, t.b, t.c \
+         FROM questions q JOIN tuples t ON t.id = q.tuple_id JOIN assignments a ON a.id = q.assignment_id \
+         WHERE a.study_id = $1 AND q.choice IS NOT NULL ORDER BY a.started_at, a.id, q.position",
+    )
+    .bind(study.id.0)
+    .fetch_all(&db.pool)
+    .await?;
+    let (mut triplets, mut reasons) = (Vec::new(), Vec::new());
+    for r in &rows {
+        let Some(hit) = hits.get(&r.try_get::<i64, _>("assignment_id")?) else {
+            continue;
+        };
+        let kind: String = r.try_get("kind")?;
+        let keep_kind = kind == "main" || (kind == "control" && opts.include_controls);
+        if !keep_kind || !opts.includes(&hit.status, hit.decision.as_deref()) {
+            continue;
+        }
+        let tuple: i64 = r.try_get("tuple_id")?;
+        let tuple_id = if kind == "main" {
+            tuple.to_string()
+        } else {
+            format!("control:{tuple}")
+        };
+        let q = if r.try_get::<String, _>("choice")? == "b" {
+            "1"
+        } else {
+            "0"
+        };
+        let (a, b, c) = (
+            name(r.try_get("a")?),
+            name(r.try_get("b")?),
+            name(r.try_get("c")?),
+        );
+        if let Some(rs) = r.try_get::<Option<String>, _>("reasons")? {
+            let codes: Vec<String> = serde_json::from_str(&rs).unwrap_or_default();
+            let codes: Vec<String> = codes
+                .iter()
+                .map(|code| {
+                    let attr = crate::flow::REASONS
+                        .iter()
+                        .find(|(_, c, _)| c == code)
+                        .map_or("other", |(a, _, _)| a);
+                    format!("{attr}:{code}")
+                })
+                .collect();
+            reasons.push(vec![
+                hit.worker.clone(),
+                tuple_id.clone(),
+                a.clone(),
+                b.clone(),
+                c.clone(),
+                q.into(),
+                codes.join(";"),
+                r.try_get::<Option<String>, _>("reason_text")?
+                    .unwrap_or_default(),
+            ]);
+        }
+        triplets.push(vec![
+            a,
+            b,
+            c,
+            q.into(),
+            hit.worker.clone(),
+            tuple_id,
+            hit.worker.clone(),
+        ]);
+    }
+    Ok((triplets, reasons))
+}
+
+fn time_cells(ms: Option<i64>) -> [String; 2] {
+    match ms {
+        Some(ms) => [ms.to_string(), iso8601(ms)],
+        None => [String::new(), String::new()],
+    }
+}
+
+/// Builds every export file of a study (without the payment files when pseudonymous).
+pub async fn build(
+    db: &Db,
+    study: &Study,
+    opts: ExportOptions,
+    public_url: &str,
+) -> Result<Vec<(String, Vec<u8>)>> {
+    let hits = hits(db, study, opts).await?;
+    let by_id: HashMap<i64, &Hit> = hits.iter().map(|h| (h.id, h)).collect();
+    let counts = counts(db, study).await?;
+    let items = library::list_items(db, study.library).await?;
+    let names: BTreeMap<i64, String> = items.iter().map(|i| (i.id.0, i.name.clone())).collect();
+    let (triplets, reasons) = answers(db, study, opts, &by_id, &names).await?;
+    let bonuses = bonus::list(db, study.id).await?;
+    let mut bonus_total: HashMap<i64, i64> = HashMap::new();
+    for b in &bonuses {
+        *bonus_total.entry(b.assignment.0).or_default() += b.amount_cents;
+    }
+
+    let (mut workers, mut assignments, mut mturk) = (Vec::new(), Vec::new(), Vec::new());
+    let no_counts = Counts::default();
+    for h in &hits {
+        if h.source == "mturk" && h.status == "completed" {
+            let rejected = h.decision.as_deref() == Some("rejected");
+            mturk.push(vec![
+                h.external_assignment.clone().unwrap_or_default(),
+                h.external.clone(),
+                h.hit_id.clone().unwrap_or_default(),
+                if rejected { "" } else { "x" }.into(),
+                if rejected {
+                    "Too many wrong answers on check questions with obvious answers.".into()
+                } else {
+                    String::new()
+                },
+            ]);
+        }
+        if !opts.includes(&h.status, h.decision.as_deref()) {
+            continue;
+        }
+        let n = counts.get(&h.id).unwrap_or(&no_counts);
+        let (questions, answered) = if opts.include_controls {
+            (n.all, n.all_answered)
+        } else {
+            (n.main, n.main_answered)
+        };
+        let field = |k: &str| {
+            h.demographics
+                .get(k)
+                .and_then(|v| v.as_str())
+                .unwrap_or("")
+                .to_string()
+        };
+        let blocked = study.settings.blocked_workers.contains(&h.external);
+        workers.push(vec![
+            h.worker.clone(),
+            h.source.clone(),
+            h.status.clone(),
+            h.decision.clone().unwrap_or_default(),
+            answered.to_string(),
+            n.control_errors.to_string(),
+            h.training_attempts.to_string(),
+            bonus::format_cents(bonus_total.get(&h.id).copied().unwrap_or(0)),
+            i64::from(blocked).to_string(),
+            field("gender"),
+            field("art_experience"),
+        ]);
+        let [started, started_utc] = time_cells(Some(h.started_at));
+        let [completed, completed_utc] = time_cells(h.completed_at);
+        assignments.push(vec![
+            h.id.to_string(),
+            h.worker.clone(),
+            h.source.clone(),
+            h.sandbox.to_string(),
+            h.status.clone(),
+            h.decision.clone().unwrap_or_default(),
+            questions.to_string(),
+            answered.to_string(),
+            n.control_errors.to_string(),
+            started,
+            started_utc,
+            completed,
+            completed_utc,
+        ]);
+    }
+
+    // Oldest first, as the other files list HITs.
+    let (mut bonus_rows, mut mturk_bonuses, mut prolific_bonuses) =
+        (Vec::new(), Vec::new(), Vec::new());
+    for b in bonuses.iter().rev() {
+        let token = format!("bonus-{}", b.id);
+        match b.source.as_str() {
+            "mturk" => mturk_bonuses.push(vec![
+                b.worker_id.clone(),
+                b.external_assignment.clone().unwrap_or_default(),
+                b.amount.clone(),
+                b.reason.clone(),
+                token.clone(),
+            ]),
+            "prolific" => prolific_bonuses.push(vec![b.worker_id.clone(), b.amount.clone()]),
+            _ => {}
+        }
+        let Some(hit) = by_id.get(&b.assignment.0) else {
+            continue;
+        };
+        if !opts.includes(&b.status, b.decision.as_deref()) {
+            continue;
+        }
+        let [created, created_utc] = time_cells(Some(b.created_at));
+        bonus_rows.push(vec![
+            token,
+            b.assignment.to_string(),
+            hit.worker.clone(),
+            b.source.clone(),
+            b.amount.clone(),
+            b.reason.clone(),
+            b.actor.clone(),
+            created,
+            created_utc,
+        ]);
+    }
+
+    let manifest_items: Vec<serde_json::Value> = items
+        .iter()
+        .map(|i| serde_json::json!({"name": i.name, "style": i.style}))
+        .collect();
+    let files: Vec<&str> = FILES
+        .iter()
+        .copied()
+        .filter(|f| !(opts.pseudonymous && is_payment_file(f)))
+        .collect();
+    let manifest = serde_json::json!({
+        "study": {
+            "id": study.id,
+            "name": study.name,
+            "created_at": study.created_at,
+            "created_at_utc": iso8601(study.created_at),
+        },
+        "settings": study.settings,
+        "export_options": {
+            "include_controls": opts.include_controls,
+            "include_rejected": opts.include_rejected,
+            "include_incomplete": opts.include_incomplete,
+            "pseudonymous": opts.pseudonymous,
+        },
+        "counts": {
+            "triplets": triplets.len(),
+            "reasons": reasons.len(),
+            "workers": workers.len(),
+            "assignments": assignments.len(),
+            "bonuses": bonus_rows.len(),
+        },
+        "items": manifest_items,
+        "files": files,
+        "columns": columns::dictionary(),
+        "number_columns": columns::number_columns(),
+        "notes": columns::notes(),
+    });
+
+    let xml = external_question_xml(&format!(
+        "{}/s/{}",
+        public_url.trim_end_matches('/'),
+        study.id
+    ));
+    let mut out = vec![
+        ("triplets.csv".into(), columns::TRIPLETS.csv(&triplets)?),
+        ("reasons.csv".into(), columns::REASONS.csv(&reasons)?),
+        ("workers.csv".into(), columns::WORKERS.csv(&workers)?),
+        (
+            "assignments.csv".into(),
+            columns::ASSIGNMENTS.csv(&assignments)?,
+        ),
+        ("bonuses.csv".into(), columns::BONUSES.csv(&bonus_rows)?),
+    ];
+    if !opts.pseudonymous {
+        out.push((
+            "mturk_decisions.csv".into(),
+            columns::MTURK_DECISIONS.csv(&mturk)?,
+        ));
+        out.push((
+            "mturk_bonuses.csv".into(),
+            columns::MTURK_BONUSES.csv(&mturk_bonuses)?,
+        ));
+        out.push((
+            "prolific_bonuses.csv".into(),
+            columns::PROLIFIC_BONUSES.csv(&prolific_bonuses)?,
+        ));
+    }
+    out.push(("external_question.xml".into(), xml.into_bytes()));
+    out.push((
+        "manifest.json".into(),
+        serde_json::to_vec_pretty(&manifest).map_err(AppError::internal)?,
+    ));
+    Ok(out)
+}
+
+/// One export file by name: 404 for a name that is not an export, 400 for a payment file of a
+/// pseudonymous export.
+pub async fn file(
+    db: &Db,
+    study: &Study,
+    name: &str,
+    opts: ExportOptions,
+    public_url: &str,
+) -> Result<(String, Vec<u8>)> {
+    if !FILES.contains(&name) {
+        return Err(AppError::NotFound("export file"));
+    }
+    if opts.pseudonymous && is_payment_file(name) {
+        return Err(AppError::BadRequest(format!(
+            "{name} holds the workers' real ids to pay them: it is not part of a pseudonymous \
+             export"
+        )));
+    }
+    build(db, study, opts, public_url)
+        .await?
+        .into_iter()
+        .find(|(n, _)| n == name)
+        .ok_or(AppError::NotFound("export file"))
+}
+
+/// MTurk's ExternalQuestion document pointing at `url` (the study's start page).
+pub fn external_question_xml(url: &str) -> String {
+    let escaped = url
+        .replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;");
+    format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n\
+         <ExternalQuestion xmlns=\"http://mechanicalturk.amazonaws.com/AWSMechanicalTurkDataSchemas/2006-07-14/ExternalQuestion.xsd\">\n  \
+         <ExternalURL>{escaped}</ExternalURL>\n  <FrameHeight>0</FrameHeight>\n</ExternalQuestion>\n"
+    )
+}
+
+/// Writes every export file into `dir`.
+pub async fn write_dir(
+    db: &Db,
+    study: &Study,
+    opts: ExportOptions,
+    public_url: &str,
+    dir: &std::path::Path,
+) -> Result<Vec<String>> {
+    std::fs::create_dir_all(dir).map_err(AppError::internal)?;
+    let files = build(db, study, opts, public_url).await?;
+    let mut written = Vec::new();
+    for (name, bytes) in files {
+        std::fs::write(dir.join(&name), bytes).map_err(AppError::internal)?;
+        written.push(name);
+    }
+    Ok(written)
+}
+
+/// Serialisable summary for `--json` output.
+#[derive(Debug, Serialize)]
+pub struct Written {
+    /// Files written.
+    pub files: Vec<String>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn external_question_escapes_the_url() {
+        let x = external_question_xml("https://h/s/1?a=1&b=2");
+        assert!(x.contains("<ExternalURL>https://h/s/1?a=1&amp;b=2</ExternalURL>"));
+    }
+
+    #[test]
+    fn every_file_but_the_xml_and_manifest_has_a_dictionary_entry() {
+        let described: Vec<&str> = columns::TABLES.iter().map(|t| t.file).collect();
+        let csvs: Vec<&str> = FILES
+            .iter()
+            .copied()
+            .filter(|f| f.ends_with(".csv"))
+            .collect();
+        assert_eq!(described, csvs);
+        for f in columns::PAYMENT_FILES {
+            assert!(FILES.contains(&f), "{f}");
+        }
+    }
+
+    #[test]
+    fn options_filter_hits_and_make_links() {
+        let default = ExportOptions::default();
+        assert!(default.includes("completed", Some("approved")));
+        assert!(default.includes("completed", None));
+        assert!(!default.includes("completed", Some("rejected")));
+        assert!(!default.includes("active", None));
+        let all = ExportOptions {
+            include_controls: true,
+            include_rejected: true,
+            include_incomplete: true,
+            pseudonymous: false,
+        };
+        assert!(all.includes("screened_out", Some("rejected")));
+        assert_eq!(default.query(), "");
+        assert_eq!(
+            all.query(),
+            "?include_controls=true&include_rejected=true&include_incomplete=true"
+        );
+    }
+}
