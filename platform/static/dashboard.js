@@ -182,7 +182,7 @@
       });
       rows(document.getElementById("per-hour"), d.answers_per_hour, ([h, n]) => [hour(h), String(n)]);
       refreshWorkers(document.getElementById("workers"), await getJson("/workers"));
-      status.textContent = "Live: updated " + new Date().toLocaleTimeString() + ".";
+      status.textContent = "Live: updated " + new Date().toISOString().slice(11, 19) + " UTC.";
       if (document.querySelector('#model-list tr[data-status="running"]')) {
         const models = await getJson("/models");
         if (!models.some(x => x.status === "running")) location.reload();

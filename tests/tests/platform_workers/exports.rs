@@ -302,7 +302,7 @@ async fn exports_are_spreadsheet_safe_and_filtered_alike(db: TestDb) {
     let exports = section(&page, "exports-section");
     assert!(
         exports.contains(&format!(
-            "/admin/studies/{study}/export/workers.csv?include_rejected=true&amp;pseudonymous=true\""
+            "/admin/studies/{study}/export/workers.csv?include_rejected=true&#38;pseudonymous=true\""
         )),
         "{exports}"
     );

@@ -72,7 +72,7 @@ async fn study_page_forms_show_errors_inline(db: TestDb) {
     assert_eq!(status, 400);
     let part = inline_error(&page, "settings", "exclude_workers_of");
     for kept in [
-        "Kept &lt;description&gt;</textarea>",
+        "Kept &#60;description&#62;</textarea>",
         "name=\"max_training_attempts\" type=\"number\" min=\"1\" max=\"100\" value=\"4\"",
         "name=\"exclude_workers_of\" value=\"12, x\"",
         "KEPT-1\nKEPT-2</textarea>",
@@ -124,7 +124,7 @@ async fn study_page_forms_show_errors_inline(db: TestDb) {
     let html = row(&page, done);
     assert!(html.contains("<details class=\"bonus\" open>"), "{html}");
     assert!(
-        html.contains("value=\"12,50\"") && html.contains("value=\"Kept &quot;reason&quot;\""),
+        html.contains("value=\"12,50\"") && html.contains("value=\"Kept &#34;reason&#34;\""),
         "{html}"
     );
     assert!(html.contains("amount:"), "{html}");

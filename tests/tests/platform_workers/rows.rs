@@ -72,6 +72,9 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
 
     // Blocking from the row: the worker's open HIT ends (no further answer), they cannot start
     // or resume, and the block list holds their platform id (audited as a settings change).
+    let (_, before) = send(c.get(format!("{}/api/v1/assignments/{mid_token}", server.base))).await;
+    let open_question = before["question"].clone();
+    assert!(open_question.is_object(), "{before}");
     let (status, _, location) = admin
         .form(
             &format!("/admin/studies/{study}/workers/{}/block", assignment(MID_HIT)),
@@ -85,10 +88,10 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
     );
     let (_, st) = send(c.get(format!("{}/api/v1/assignments/{mid_token}", server.base))).await;
     assert_eq!(st["status"], "abandoned", "{st}");
-    let q = &st["question"];
     let (status, body) = send(
-        c.post(format!("{}/api/v1/assignments/{mid_token}/answers", server.base))
-            .json(&json!({"position": 1, "choice": q["left"]["id"]})),
+        c.post(format!("{}/api/v1/assignments/{mid_token}/answers", server.base)).json(
+            &json!({"position": open_question["position"], "choice": open_question["left"]["id"]}),
+        ),
     )
     .await;
     assert!(status == 404 || status == 409, "answer after the block: {status} {body}");
