@@ -367,12 +367,17 @@ mod tests {
 
     #[test]
     fn spreadsheet_safe_cells_read_back() {
-        let ids = ["-1.svg", "+1.svg", "'q.svg", "x"].map(String::from).to_vec();
+        let ids = ["-1.svg", "+1.svg", "'q.svg", "x"]
+            .map(String::from)
+            .to_vec();
         let table = FeatureTable::new(vec!["f".into()], ids, vec![0.0, 1.0, 2.0, 3.0]).unwrap();
         let text = "a,b,c,q,worker,tuple_id\n'-1.svg,'+1.svg,''q.svg,1,'@w,t\n\
                     x,'+1.svg,'-1.svg,0,@w,t\n";
         let s = read_triplets_from(text.as_bytes(), Path::new("t.csv"), &table, false).unwrap();
-        assert_eq!((s.triplets[0].a, s.triplets[0].b, s.triplets[0].c), (0, 1, 2));
+        assert_eq!(
+            (s.triplets[0].a, s.triplets[0].b, s.triplets[0].c),
+            (0, 1, 2)
+        );
         assert_eq!(s.triplets[0].worker, s.triplets[1].worker, "'@w is @w");
         // A quote before anything else is part of the value.
         assert_eq!(unquote("'abc"), "'abc");

@@ -588,8 +588,7 @@ pub async fn export_file(
         return Err(AppError::NotFound("export file"));
     }
     let s = study::load(&state.db, id).await?;
-    let (name, bytes) =
-        export::file(&state.db, &s, file, opts, &state.settings.public_url).await?;
+    let (name, bytes) = export::file(&state.db, &s, file, opts, &state.settings.public_url).await?;
     let mime = if name.ends_with(".csv") {
         "text/csv; charset=utf-8"
     } else if name.ends_with(".xml") {

@@ -11,9 +11,9 @@ use crate::db::{Db, now_ms};
 use crate::error::{AppError, Result};
 use crate::ids::{AssignmentId, BonusId, StudyId};
 
-/// The largest bonus one record may carry, in cents: a guard against typing 425 for 4.25
+/// The largest bonus one record may carry, in cents (100.00): a guard against typing 425 for 4.25
 /// (Prolific pays an amount of 30 as 30.00, and MTurk takes the amount as given).
-pub const MAX_BONUS_CENTS: i64 = 100_00;
+pub const MAX_BONUS_CENTS: i64 = 10_000;
 
 /// The longest reason, in characters.
 pub const MAX_REASON_CHARS: usize = 500;
@@ -44,9 +44,7 @@ pub fn parse_amount(text: &str) -> Result<i64> {
     };
     let cents = whole * 100 + fraction;
     if cents == 0 {
-        return Err(AppError::BadRequest(
-            "amount: must be more than 0".into(),
-        ));
+        return Err(AppError::BadRequest("amount: must be more than 0".into()));
     }
     if cents > MAX_BONUS_CENTS {
         return Err(AppError::BadRequest(format!(

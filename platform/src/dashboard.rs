@@ -4,7 +4,7 @@
 //! per-worker table (newest HIT first, each worker named by their crowd platform's id).
 //! Computed from the stored rows on every request (no in-process state).
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet};
 
 use hmac::{Hmac, Mac};
 use serde::Serialize;
@@ -185,6 +185,13 @@ pub async fn compute(db: &Db, study: &Study) -> Result<(Dashboard, Vec<WorkerRow
     .bind(study.id.0)
     .fetch_all(&db.pool)
     .await?;
+    // The block list may hold many thousand ids: one set lookup per row.
+    let blocked: HashSet<&str> = study
+        .settings
+        .blocked_workers
+        .iter()
+        .map(String::as_str)
+        .collect();
     let mut workers = Vec::with_capacity(rows.len());
     let mut hist: BTreeMap<i64, i64> = BTreeMap::new();
     for r in &rows {
@@ -211,7 +218,7 @@ pub async fn compute(db: &Db, study: &Study) -> Result<(Dashboard, Vec<WorkerRow
         let worker_id: String = r.try_get("external_id")?;
         workers.push(WorkerRow {
             worker_id_masked: mask(&worker_id),
-            blocked: study.settings.blocked_workers.contains(&worker_id),
+            blocked: blocked.contains(worker_id.as_str()),
             worker_id,
             assignment: r.try_get("id")?,
             source: r.try_get("source")?,

@@ -150,20 +150,32 @@
     return Array.from(tr.querySelectorAll("input:not([type=hidden])")).some(i => i.value !== i.defaultValue);
   }
 
+  // Puts the rows in the order of `list` (newest first) without moving the rows already in
+  // place: a moved element loses the focus, and with it the click the admin is making. New
+  // workers' rows go in above them.
   function refreshWorkers(table, list) {
     const old = new Map();
     table.querySelectorAll("tr[data-assignment]").forEach(tr => old.set(tr.dataset.assignment, tr));
     const body = table.tBodies[0] || table;
-    for (const tr of old.values()) tr.remove();
+    let cursor = body.querySelector("tr[data-assignment]");
     for (const w of list) {
-      const kept = old.get(String(w.assignment));
-      if (kept && busy(kept)) {
-        workerText(w).forEach((text, i) => { kept.cells[i + 1].textContent = text; });
-        body.appendChild(kept);
+      const key = String(w.assignment);
+      const existing = old.get(key);
+      old.delete(key);
+      let tr = existing;
+      if (existing && busy(existing)) {
+        workerText(w).forEach((text, i) => { existing.cells[i + 1].textContent = text; });
       } else {
-        body.appendChild(workerRow(w, table.dataset.csrf));
+        tr = workerRow(w, table.dataset.csrf);
+        if (existing) existing.replaceWith(tr);
+      }
+      if (existing && existing === cursor) {
+        cursor = tr.nextElementSibling;
+      } else {
+        body.insertBefore(tr, cursor);
       }
     }
+    for (const tr of old.values()) tr.remove();
   }
 
   async function refresh() {

@@ -484,7 +484,11 @@ async fn worker_and_admin_flows_in_chromium() {
     );
     let before = worker_id_shown(&c, &id_css).await;
     assert_ne!(before[0], json!("api-0"), "masked: {before}");
-    assert_eq!((&before[1], &before[2]), (&json!(false), &json!("api-0")), "{before}");
+    assert_eq!(
+        (&before[1], &before[2]),
+        (&json!(false), &json!("api-0")),
+        "{before}"
+    );
     c.find(Locator::Css(&format!("{id_css} summary")))
         .await
         .expect("summary")
@@ -493,7 +497,11 @@ async fn worker_and_admin_flows_in_chromium() {
         .expect("reveal");
     tokio::time::sleep(Duration::from_millis(2500)).await;
     let after = worker_id_shown(&c, &id_css).await;
-    assert_eq!((&after[1], &after[2]), (&json!(true), &json!("api-0")), "{after}");
+    assert_eq!(
+        (&after[1], &after[2]),
+        (&json!(true), &json!("api-0")),
+        "{after}"
+    );
     shot(&c, &artifacts, "09b-admin-worker-revealed.png").await;
     // The override form the script built posts with the CSRF token: reject the new worker's HIT
     // (the page reloads with the decision), then approve it again.

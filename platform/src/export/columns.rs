@@ -32,7 +32,10 @@ pub(super) const TRIPLETS: Table = Table {
         text("a", "reference item (library item name)"),
         text("b", "first candidate item"),
         text("c", "second candidate item"),
-        number("q", "1 if the worker judged A closer in style to B, 0 if to C"),
+        number(
+            "q",
+            "1 if the worker judged A closer in style to B, 0 if to C",
+        ),
         text(
             "worker",
             "the same as worker_id: the learner's triplet format groups answers by this column",
@@ -80,7 +83,10 @@ pub(super) const WORKERS: Table = Table {
         ),
         number("control_errors", "wrong or unanswered hidden controls"),
         number("training_attempts", "training attempts used"),
-        number("bonus", "sum of the bonuses recorded for the HIT (bonuses.csv)"),
+        number(
+            "bonus",
+            "sum of the bonuses recorded for the HIT (bonuses.csv)",
+        ),
         number("blocked", "1 if the worker id is on the study's block list"),
         text("gender", "self-reported, optional"),
         text("art_experience", "none, some or professional (optional)"),
@@ -143,7 +149,10 @@ pub(super) const MTURK_DECISIONS: Table = Table {
     header: true,
     columns: &[
         text("AssignmentId", "MTurk assignment id (identifying)"),
-        text("WorkerId", "MTurk worker id (identifying; worker_id elsewhere)"),
+        text(
+            "WorkerId",
+            "MTurk worker id (identifying; worker_id elsewhere)",
+        ),
         text("HITId", "MTurk HIT id"),
         text("Approve", "x when approved"),
         text("Reject", "rejection reason when rejected"),
@@ -154,7 +163,10 @@ pub(super) const MTURK_BONUSES: Table = Table {
     file: "mturk_bonuses.csv",
     header: true,
     columns: &[
-        text("WorkerId", "MTurk worker id (--worker-id of aws mturk send-bonus)"),
+        text(
+            "WorkerId",
+            "MTurk worker id (--worker-id of aws mturk send-bonus)",
+        ),
         text("AssignmentId", "MTurk assignment id (--assignment-id)"),
         number("BonusAmount", "US dollars, e.g. 1.50 (--bonus-amount)"),
         text("Reason", "shown to the worker (--reason)"),

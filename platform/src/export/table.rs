@@ -64,18 +64,21 @@ impl Table {
                     self.columns.len()
                 )));
             }
-            let cells = row.iter().zip(self.columns).map(|(cell, col)| match col.kind {
-                Kind::Text => neutralise(cell),
-                Kind::Number => {
-                    debug_assert!(
-                        cell.is_empty() || cell.parse::<f64>().is_ok(),
-                        "{}: {} is a number column, got {cell:?}",
-                        self.file,
-                        col.name
-                    );
-                    Cow::Borrowed(cell.as_str())
-                }
-            });
+            let cells = row
+                .iter()
+                .zip(self.columns)
+                .map(|(cell, col)| match col.kind {
+                    Kind::Text => neutralise(cell),
+                    Kind::Number => {
+                        debug_assert!(
+                            cell.is_empty() || cell.parse::<f64>().is_ok(),
+                            "{}: {} is a number column, got {cell:?}",
+                            self.file,
+                            col.name
+                        );
+                        Cow::Borrowed(cell.as_str())
+                    }
+                });
             w.write_record(cells.map(|c| c.into_owned()))
                 .map_err(AppError::internal)?;
         }

@@ -83,7 +83,7 @@ async fn admin_train(
 ) -> Response {
     let (admin, f) = match super::study_page::checked(admin, form, |f| f.csrf.as_deref()) {
         Ok(x) => x,
-        Err(page) => return page,
+        Err(e) => return page(Err(e)),
     };
     let typed = f.lambda.clone().unwrap_or_default();
     let run = async {

@@ -192,11 +192,20 @@ async fn exports_are_spreadsheet_safe_and_filtered_alike(db: TestDb) {
     let (_, reasons) = admin.export(study, "reasons.csv", everything).await;
     let (_, reasons) = csv_table(&reasons, true);
     let texts: BTreeSet<&str> = reasons.iter().map(|r| r["text"].as_str()).collect();
-    assert!(texts.contains(format!("'{FORMULA_TEXT}").as_str()), "{texts:?}");
-    assert!(texts.contains("'-2+3") && texts.contains("'+cmd"), "{texts:?}");
+    assert!(
+        texts.contains(format!("'{FORMULA_TEXT}").as_str()),
+        "{texts:?}"
+    );
+    assert!(
+        texts.contains("'-2+3") && texts.contains("'+cmd"),
+        "{texts:?}"
+    );
     let (_, triplets) = admin.export(study, "triplets.csv", everything).await;
     let (_, triplets) = csv_table(&triplets, true);
-    assert!(triplets.iter().all(|t| t["a"].starts_with('\'')), "item names quoted");
+    assert!(
+        triplets.iter().all(|t| t["a"].starts_with('\'')),
+        "item names quoted"
+    );
     let written_ids: BTreeSet<String> = ids(&triplets);
     assert_eq!(
         written_ids,
@@ -220,7 +229,11 @@ async fn exports_are_spreadsheet_safe_and_filtered_alike(db: TestDb) {
     // The filters apply to every analysis file alike.
     let cases: [(&str, &[&str], &[&str]); 4] = [
         ("", &[ALICE], &[ALICE]),
-        ("?include_rejected=true", &[ALICE, REJECTED], &[ALICE, REJECTED]),
+        (
+            "?include_rejected=true",
+            &[ALICE, REJECTED],
+            &[ALICE, REJECTED],
+        ),
         ("?include_incomplete=true", &[ALICE, MID], &[ALICE]),
         (
             "?include_rejected=true&include_incomplete=true",
@@ -248,7 +261,10 @@ async fn exports_are_spreadsheet_safe_and_filtered_alike(db: TestDb) {
             "{query}: {decisions}"
         );
         let (_, bonuses) = admin.export(study, "mturk_bonuses.csv", query).await;
-        assert!(bonuses.contains(&format!("{REJECTED},ASG-R,0.50,")), "{bonuses}");
+        assert!(
+            bonuses.contains(&format!("{REJECTED},ASG-R,0.50,")),
+            "{bonuses}"
+        );
     }
     // Hidden controls: in triplets.csv and reasons.csv only with include_controls, and the
     // answer counts of workers.csv follow (they add up to triplets.csv's rows).
@@ -263,14 +279,20 @@ async fn exports_are_spreadsheet_safe_and_filtered_alike(db: TestDb) {
         let is_control = |row: &HashMap<String, String>| row["tuple_id"].starts_with("control:");
         assert_eq!(t.iter().any(is_control), controls, "triplets{query}");
         assert_eq!(r.iter().any(is_control), controls, "reasons{query}");
-        let answered: usize = w.iter().map(|x| x["answered"].parse::<usize>().expect("n")).sum();
+        let answered: usize = w
+            .iter()
+            .map(|x| x["answered"].parse::<usize>().expect("n"))
+            .sum();
         assert_eq!(answered, t.len(), "{query}");
     }
     // The manifest says what each filter does to each file, and why the payment files differ.
     let notes = &manifest["notes"];
     for filter in ["include_controls", "include_rejected", "include_incomplete"] {
         for file in ANALYSIS {
-            assert!(notes["filters"][filter][file].is_string(), "{filter} {file}");
+            assert!(
+                notes["filters"][filter][file].is_string(),
+                "{filter} {file}"
+            );
         }
     }
     assert!(
@@ -295,6 +317,38 @@ async fn exports_are_spreadsheet_safe_and_filtered_alike(db: TestDb) {
     );
     assert!(iso.len() == 24 && iso.ends_with(&clock), "{iso} for {ms}");
 
+    // The command line writes a pseudonymous export without the payment files.
+    let dir = tempfile::tempdir().expect("tmp");
+    let out = dir.path().to_string_lossy().into_owned();
+    let study_arg = study.to_string();
+    platform_ok(
+        &[
+            "export",
+            &study_arg,
+            "--database-url",
+            &db.url,
+            "--out",
+            &out,
+            "--pseudonymous",
+        ],
+        &[],
+    );
+    let workers = std::fs::read_to_string(dir.path().join("workers.csv")).expect("workers.csv");
+    assert!(
+        !workers.contains("alice") && !workers.contains(REJECTED),
+        "{workers}"
+    );
+    for file in [
+        "mturk_decisions.csv",
+        "mturk_bonuses.csv",
+        "prolific_bonuses.csv",
+    ] {
+        assert!(
+            !dir.path().join(file).exists(),
+            "{file} in a pseudonymous export"
+        );
+    }
+
     // The study page's exports form: the links carry the options chosen.
     let page = admin
         .page(study, "?include_rejected=true&pseudonymous=true")
@@ -308,7 +362,10 @@ async fn exports_are_spreadsheet_safe_and_filtered_alike(db: TestDb) {
     );
     assert!(exports.contains("name=\"include_rejected\" value=\"true\" checked"));
     assert!(!exports.contains("name=\"include_controls\" value=\"true\" checked"));
-    assert!(!exports.contains("mturk_bonuses.csv"), "no payment file when pseudonymous");
+    assert!(
+        !exports.contains("mturk_bonuses.csv"),
+        "no payment file when pseudonymous"
+    );
     let page = admin.page(study, "").await;
     let exports = section(&page, "exports-section");
     assert!(exports.contains(&format!(

@@ -11,14 +11,20 @@ use super::*;
 /// Checks that `page` is the whole study page and that section `id` shows `error` (an
 /// element with class `form-error` containing `mention`); returns the section.
 fn inline_error<'p>(page: &'p str, id: &str, mention: &str) -> &'p str {
-    assert!(page.contains("<nav class=\"study-nav\""), "not the study page: {page}");
+    assert!(
+        page.contains("<nav class=\"study-nav\""),
+        "not the study page: {page}"
+    );
     let part = section(page, id);
     let error = part
         .split("class=\"form-error\"")
         .nth(1)
         .unwrap_or_else(|| panic!("no error in section {id}: {part}"));
     let error = error.split("</p>").next().unwrap_or_default();
-    assert!(error.contains(mention), "{id}: {error:?} should mention {mention}");
+    assert!(
+        error.contains(mention),
+        "{id}: {error:?} should mention {mention}"
+    );
     part
 }
 
@@ -39,7 +45,10 @@ async fn study_page_forms_show_errors_inline(db: TestDb) {
     let (status, page, _) = admin.form(&path("train"), &[("lambda", "0.5")]).await;
     assert_eq!(status, 409, "{page}");
     let part = inline_error(&page, "style-metric", "no answers");
-    assert!(part.contains("name=\"lambda\"") && part.contains("value=\"0.5\""), "{part}");
+    assert!(
+        part.contains("name=\"lambda\"") && part.contains("value=\"0.5\""),
+        "{part}"
+    );
     let (status, page, _) = admin.form(&path("train"), &[("lambda", "abc")]).await;
     assert_eq!(status, 400);
     let part = inline_error(&page, "style-metric", "λ");
@@ -91,7 +100,10 @@ async fn study_page_forms_show_errors_inline(db: TestDb) {
     // QC: the threshold as typed.
     for threshold in ["0", "many"] {
         let (status, page, _) = admin
-            .form(&path("qc"), &[("threshold", threshold), ("mode", "dry_run")])
+            .form(
+                &path("qc"),
+                &[("threshold", threshold), ("mode", "dry_run")],
+            )
             .await;
         assert_eq!(status, 400, "{threshold}");
         let part = inline_error(&page, "quality-control", "threshold");
@@ -102,7 +114,10 @@ async fn study_page_forms_show_errors_inline(db: TestDb) {
     let (status, page, _) = admin
         .form(
             &path("decision"),
-            &[("assignment", &training.to_string()), ("decision", "approved")],
+            &[
+                ("assignment", &training.to_string()),
+                ("decision", "approved"),
+            ],
         )
         .await;
     assert_eq!(status, 409);
@@ -110,7 +125,10 @@ async fn study_page_forms_show_errors_inline(db: TestDb) {
     assert!(row(&page, training).contains("class=\"form-error\""));
     assert!(!row(&page, done).contains("class=\"form-error\""));
     let (status, page, _) = admin
-        .form(&path(&format!("workers/{done}/block")), &[("action", "explode")])
+        .form(
+            &path(&format!("workers/{done}/block")),
+            &[("action", "explode")],
+        )
         .await;
     assert_eq!(status, 400);
     assert!(row(&page, done).contains("action: block or unblock"));
@@ -142,7 +160,10 @@ async fn study_page_forms_show_errors_inline(db: TestDb) {
     assert_eq!(bonuses, json!([]), "nothing recorded");
     // A worker-row form naming no row of this study: the error above the table.
     let (status, page, _) = admin
-        .form(&path("decision"), &[("assignment", "7"), ("decision", "approved")])
+        .form(
+            &path("decision"),
+            &[("assignment", "7"), ("decision", "approved")],
+        )
         .await;
     assert_eq!(status, 404);
     let part = section(&page, "workers-section");

@@ -110,7 +110,12 @@ impl<'a> Admin<'a> {
             .as_array()
             .expect("rows")
             .iter()
-            .map(|w| (w["worker_id"].as_str().unwrap_or("?").to_string(), w.clone()))
+            .map(|w| {
+                (
+                    w["worker_id"].as_str().unwrap_or("?").to_string(),
+                    w.clone(),
+                )
+            })
             .collect()
     }
 }
@@ -183,8 +188,10 @@ async fn run_worker(s: &Study<'_>, start: Value, run: Run, reason_text: &str) ->
         if ack["ask_reasons"] == true {
             let (status, body) = send(
                 c.post(format!("{base}/api/v1/assignments/{token}/reasons"))
-                    .json(&json!({"position": q["position"], "reasons": ["colour_palette"],
-                                  "text": reason_text})),
+                    .json(
+                        &json!({"position": q["position"], "reasons": ["colour_palette"],
+                                  "text": reason_text}),
+                    ),
             )
             .await;
             assert_eq!(status, 200, "reasons: {body}");

@@ -77,7 +77,10 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
     assert!(open_question.is_object(), "{before}");
     let (status, _, location) = admin
         .form(
-            &format!("/admin/studies/{study}/workers/{}/block", assignment(MID_HIT)),
+            &format!(
+                "/admin/studies/{study}/workers/{}/block",
+                assignment(MID_HIT)
+            ),
             &[("action", "block")],
         )
         .await;
@@ -89,12 +92,19 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
     let (_, st) = send(c.get(format!("{}/api/v1/assignments/{mid_token}", server.base))).await;
     assert_eq!(st["status"], "abandoned", "{st}");
     let (status, body) = send(
-        c.post(format!("{}/api/v1/assignments/{mid_token}/answers", server.base)).json(
+        c.post(format!(
+            "{}/api/v1/assignments/{mid_token}/answers",
+            server.base
+        ))
+        .json(
             &json!({"position": open_question["position"], "choice": open_question["left"]["id"]}),
         ),
     )
     .await;
-    assert!(status == 404 || status == 409, "answer after the block: {status} {body}");
+    assert!(
+        status == 404 || status == 409,
+        "answer after the block: {status} {body}"
+    );
     let (status, body) = send(
         c.post(format!("{}/api/v1/studies/{study}/start", server.base))
             .json(&direct(MID_HIT)),
@@ -131,7 +141,10 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
     // Unblocking from the row lets them back in.
     let (status, _, _) = admin
         .form(
-            &format!("/admin/studies/{study}/workers/{}/block", assignment(MID_HIT)),
+            &format!(
+                "/admin/studies/{study}/workers/{}/block",
+                assignment(MID_HIT)
+            ),
             &[("action", "unblock")],
         )
         .await;
@@ -158,7 +171,11 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
         .json(&format!("/api/v1/admin/studies/{study}/audit"))
         .await;
     let audit = audit.as_array().expect("audit");
-    assert_eq!(audit.len(), 4, "3 rule decisions and the override: {audit:?}");
+    assert_eq!(
+        audit.len(),
+        4,
+        "3 rule decisions and the override: {audit:?}"
+    );
     assert_eq!(
         (&audit[0]["worker_id"], &audit[0]["rule"]),
         (&json!(ALICE), &json!("override")),
@@ -199,7 +216,10 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
     ] {
         let (status, body, _) = admin
             .form(
-                &format!("/admin/studies/{study}/workers/{}/bonus", assignment(worker)),
+                &format!(
+                    "/admin/studies/{study}/workers/{}/bonus",
+                    assignment(worker)
+                ),
                 &[("amount", amount), ("reason", reason)],
             )
             .await;
@@ -214,18 +234,31 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
             json!({"amount": 0.75, "reason": "Extra"}),
         )
         .await;
-    assert_eq!((status, &api_bonus["amount"]), (200, &json!("0.75")), "{api_bonus}");
+    assert_eq!(
+        (status, &api_bonus["amount"]),
+        (200, &json!("0.75")),
+        "{api_bonus}"
+    );
     let bonuses = admin
         .json(&format!("/api/v1/admin/studies/{study}/bonuses"))
         .await;
     let bonuses = bonuses.as_array().expect("bonuses");
     let listed: Vec<(&str, &str)> = bonuses
         .iter()
-        .map(|b| (b["worker_id"].as_str().unwrap(), b["amount"].as_str().unwrap()))
+        .map(|b| {
+            (
+                b["worker_id"].as_str().unwrap(),
+                b["amount"].as_str().unwrap(),
+            )
+        })
         .collect();
     assert_eq!(
         listed,
-        [(ALICE, "0.75"), (MTURK_WORKER, "1.00"), (PROLIFIC_PID, "2.50")],
+        [
+            (ALICE, "0.75"),
+            (MTURK_WORKER, "1.00"),
+            (PROLIFIC_PID, "2.50")
+        ],
         "newest first"
     );
     assert!(bonuses.iter().all(|b| b["actor"] == "admin:admin"
@@ -261,7 +294,10 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
     let (_, csv) = admin.export(study, "prolific_bonuses.csv", "").await;
     assert_eq!(csv, format!("{PROLIFIC_PID},2.50\n"));
     let (_, csv) = admin.export(study, "mturk_decisions.csv", "").await;
-    assert!(csv.contains(&format!("ASG1,{MTURK_WORKER},HIT1,x,")), "{csv}");
+    assert!(
+        csv.contains(&format!("ASG1,{MTURK_WORKER},HIT1,x,")),
+        "{csv}"
+    );
     for file in [
         "triplets.csv",
         "reasons.csv",
@@ -270,11 +306,18 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
         "bonuses.csv",
     ] {
         let (status, text) = admin
-            .export(study, file, "?include_rejected=true&include_incomplete=true")
+            .export(
+                study,
+                file,
+                "?include_rejected=true&include_incomplete=true",
+            )
             .await;
         assert_eq!(status, 200, "{file}");
         let (header, rows) = csv_table(&text, true);
-        assert!(header.iter().any(|h| h == "worker_id"), "{file}: {header:?}");
+        assert!(
+            header.iter().any(|h| h == "worker_id"),
+            "{file}: {header:?}"
+        );
         assert!(!rows.is_empty(), "{file}");
         for r in &rows {
             assert!(ids.contains(&r["worker_id"].as_str()), "{file}: {r:?}");
@@ -285,7 +328,9 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
         assert!(!has_pseudonym(&text), "{file}: {text}");
     }
     // A pseudonymous export for sharing: pseudonyms only, no payment file.
-    let (_, text) = admin.export(study, "workers.csv", "?pseudonymous=true").await;
+    let (_, text) = admin
+        .export(study, "workers.csv", "?pseudonymous=true")
+        .await;
     let (_, rows) = csv_table(&text, true);
     assert!(!rows.is_empty());
     for r in &rows {
@@ -332,6 +377,24 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
         section(&page, id);
     }
     assert_no_inline_code(&page);
+
+    // The JSON API documents what the rows post.
+    let (_, doc) = send(c.get(format!("{}/api/v1/openapi.json", server.base))).await;
+    for (path, method) in [
+        (
+            "/api/v1/admin/studies/{study}/assignments/{assignment}/block",
+            "post",
+        ),
+        (
+            "/api/v1/admin/studies/{study}/assignments/{assignment}/bonuses",
+            "post",
+        ),
+        ("/api/v1/admin/studies/{study}/bonuses", "get"),
+    ] {
+        assert!(doc["paths"][path][method].is_object(), "{method} {path}");
+    }
+    assert!(doc["components"]["schemas"]["BonusRecord"].is_object());
+    assert!(doc["components"]["schemas"]["WorkerRow"]["properties"]["worker_id"].is_object());
 }
 both_databases!(
     workers_are_managed_from_their_row,
@@ -345,12 +408,16 @@ fn assert_no_inline_code(page: &str) {
         let tag = script.split('>').next().unwrap_or_default();
         assert!(tag.contains(" src="), "inline script: <script{tag}>");
     }
-    assert!(!page.contains("<style") && !page.contains(" style="), "inline style");
+    assert!(
+        !page.contains("<style") && !page.contains(" style="),
+        "inline style"
+    );
     for tag in page.split('<').skip(1) {
         let tag = tag.split('>').next().unwrap_or_default();
-        let handler = tag.split_whitespace().skip(1).any(|attr| {
-            attr.starts_with("on") && attr.contains('=') && !attr.starts_with("one")
-        });
+        let handler = tag
+            .split_whitespace()
+            .skip(1)
+            .any(|attr| attr.starts_with("on") && attr.contains('=') && !attr.starts_with("one"));
         assert!(!handler, "inline handler: <{tag}>");
     }
 }

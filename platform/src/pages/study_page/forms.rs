@@ -19,16 +19,16 @@ use crate::study_edit::{self, SettingsPatch};
 use super::super::page;
 use super::{Submitted, View, form_error, study_page};
 
-/// The admin and the form, once the session and the form's CSRF token are checked; the plain
-/// error page otherwise (those failures are not the admin's input to correct).
+/// The admin and the form, once the session and the form's CSRF token are checked. Callers
+/// show the plain error page for a failure: it is not the admin's input to correct.
 pub(in crate::pages) fn checked<F>(
     admin: std::result::Result<Admin, AppError>,
     form: std::result::Result<ApiForm<F>, AppError>,
     csrf: impl FnOnce(&F) -> Option<&str>,
-) -> std::result::Result<(Admin, F), Response> {
-    let admin = admin.map_err(|e| page(Err(e)))?;
-    let ApiForm(f) = form.map_err(|e| page(Err(e)))?;
-    admin.check_csrf(csrf(&f)).map_err(|e| page(Err(e)))?;
+) -> Result<(Admin, F)> {
+    let admin = admin?;
+    let ApiForm(f) = form?;
+    admin.check_csrf(csrf(&f))?;
     Ok((admin, f))
 }
 
@@ -47,7 +47,7 @@ pub(super) async fn admin_qc(
 ) -> Response {
     let (admin, f) = match checked(admin, form, |f| f.csrf.as_deref()) {
         Ok(x) => x,
-        Err(page) => return page,
+        Err(e) => return page(Err(e)),
     };
     let threshold = f.threshold.clone().unwrap_or_default();
     let run = async {
@@ -266,7 +266,7 @@ pub(super) async fn admin_settings(
 ) -> Response {
     let (admin, f) = match checked(admin, form, |f| f.csrf.as_deref()) {
         Ok(x) => x,
-        Err(page) => return page,
+        Err(e) => return page(Err(e)),
     };
     let run = async {
         let patch = f.patch()?;
@@ -294,7 +294,7 @@ pub(super) async fn admin_decision(
 ) -> Response {
     let (admin, f) = match checked(admin, form, |f| f.csrf.as_deref()) {
         Ok(x) => x,
-        Err(page) => return page,
+        Err(e) => return page(Err(e)),
     };
     let assignment: Option<AssignmentId> = f.assignment.as_deref().and_then(|a| a.parse().ok());
     let run = async {

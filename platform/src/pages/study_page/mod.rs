@@ -18,15 +18,15 @@ use axum::routing::{get, post};
 
 use crate::AppState;
 use crate::admin::Admin;
-use crate::bonus::{self, BonusRecord};
+use crate::bonus;
 use crate::dashboard;
 use crate::error::{AppError, Result};
 use crate::export::{self, ExportOptions};
 use crate::extract::{ApiPath, ApiQuery};
 use crate::ids::StudyId;
-use crate::qc::{self, DecisionRecord, RuleOutcome};
+use crate::qc::{self, RuleOutcome};
 use crate::study::{self, MturkMode, StudySettings};
-use crate::study_edit::{self, SettingsChange};
+use crate::study_edit;
 use crate::train::{self};
 
 use super::models::ModelRow;
@@ -34,7 +34,10 @@ use super::time::{utc_hour, utc_minute};
 use super::{page, render};
 
 mod forms;
+mod listed;
 mod workers;
+
+use listed::{AuditRow, BonusRow, ChangeRow};
 
 pub(super) use forms::checked;
 use forms::{SettingsFields, SettingsForm};
@@ -44,8 +47,14 @@ pub(super) fn routes() -> Router<AppState> {
     Router::new()
         .route("/admin/studies/{study}", get(admin_study))
         .route("/admin/studies/{study}/qc", post(forms::admin_qc))
-        .route("/admin/studies/{study}/decision", post(forms::admin_decision))
-        .route("/admin/studies/{study}/settings", post(forms::admin_settings))
+        .route(
+            "/admin/studies/{study}/decision",
+            post(forms::admin_decision),
+        )
+        .route(
+            "/admin/studies/{study}/settings",
+            post(forms::admin_settings),
+        )
         .route(
             "/admin/studies/{study}/workers/{assignment}/block",
             post(workers::admin_block),
@@ -99,15 +108,23 @@ struct AdminStudy {
 /// What the admin sent with a form the page shows an error for.
 pub(super) enum Submitted {
     Settings(Box<SettingsForm>),
-    Qc { threshold: String },
-    Decision { assignment: i64 },
-    Block { assignment: i64 },
+    Qc {
+        threshold: String,
+    },
+    Decision {
+        assignment: i64,
+    },
+    Block {
+        assignment: i64,
+    },
     Bonus {
         assignment: i64,
         amount: String,
         reason: String,
     },
-    Train { lambda: String },
+    Train {
+        lambda: String,
+    },
 }
 
 /// A refused form: what was sent and why it was refused.
@@ -197,75 +214,6 @@ impl AdminStudy {
         match self.error.as_ref().map(|e| &e.submitted) {
             Some(Submitted::Train { lambda }) => lambda,
             _ => "",
-        }
-    }
-}
-
-/// A settings change as the study page lists it.
-struct ChangeRow {
-    at: String,
-    field: String,
-    old: String,
-    new: String,
-    actor: String,
-}
-
-impl From<SettingsChange> for ChangeRow {
-    fn from(c: SettingsChange) -> Self {
-        Self {
-            at: utc_minute(c.changed_at),
-            field: c.field,
-            old: c.old.to_string(),
-            new: c.new.to_string(),
-            actor: c.actor,
-        }
-    }
-}
-
-/// An audited decision as the study page lists it.
-struct AuditRow {
-    at: String,
-    worker_id: String,
-    source: String,
-    decision: String,
-    rule: String,
-    actor: String,
-    control_errors: i64,
-}
-
-impl From<DecisionRecord> for AuditRow {
-    fn from(d: DecisionRecord) -> Self {
-        Self {
-            at: utc_minute(d.decided_at),
-            worker_id: d.worker_id,
-            source: d.source,
-            decision: d.decision,
-            rule: d.rule,
-            actor: d.actor,
-            control_errors: d.control_errors,
-        }
-    }
-}
-
-/// A recorded bonus as the study page lists it.
-struct BonusRow {
-    at: String,
-    worker_id: String,
-    source: String,
-    amount: String,
-    reason: String,
-    actor: String,
-}
-
-impl From<BonusRecord> for BonusRow {
-    fn from(b: BonusRecord) -> Self {
-        Self {
-            at: utc_minute(b.created_at),
-            worker_id: b.worker_id,
-            source: b.source,
-            amount: b.amount,
-            reason: b.reason,
-            actor: b.actor,
         }
     }
 }

@@ -14,6 +14,7 @@ use crate::extract::{ApiForm, ApiPath};
 use crate::ids::{AssignmentId, StudyId};
 use crate::study_edit;
 
+use super::super::page;
 use super::forms::checked;
 use super::{Submitted, form_error};
 
@@ -32,7 +33,7 @@ pub(super) async fn admin_block(
 ) -> Response {
     let (admin, f) = match checked(admin, form, |f| f.csrf.as_deref()) {
         Ok(x) => x,
-        Err(page) => return page,
+        Err(e) => return page(Err(e)),
     };
     let run = async {
         let blocked = match f.action.as_deref() {
@@ -70,7 +71,7 @@ pub(super) async fn admin_bonus(
 ) -> Response {
     let (admin, f) = match checked(admin, form, |f| f.csrf.as_deref()) {
         Ok(x) => x,
-        Err(page) => return page,
+        Err(e) => return page(Err(e)),
     };
     let amount = f.amount.unwrap_or_default();
     let reason = f.reason.unwrap_or_default();
