@@ -126,7 +126,8 @@ async fn exports_are_spreadsheet_safe_and_filtered_alike(db: TestDb) {
     };
     run_worker(&s, direct(ALICE), Run::Honest, FORMULA_TEXT).await;
     run_worker(&s, mturk(REJECTED, "ASG-R"), Run::Wrong, "-2+3").await;
-    run_worker(&s, direct(MID), Run::Partly(2), "+cmd").await;
+    // Three answers of a HIT with two hidden controls: at least one main answer.
+    run_worker(&s, direct(MID), Run::Partly(3), "+cmd").await;
     let admin = Admin::login(&c, &server.base).await;
     let rows = admin.workers(study).await;
     assert_eq!(rows[REJECTED]["decision"], "rejected", "{rows:?}");

@@ -243,7 +243,7 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
         .json(&format!("/api/v1/admin/studies/{study}/bonuses"))
         .await;
     let bonuses = bonuses.as_array().expect("bonuses");
-    let listed: Vec<(&str, &str)> = bonuses
+    let mut listed: Vec<(&str, &str)> = bonuses
         .iter()
         .map(|b| {
             (
@@ -252,14 +252,20 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
             )
         })
         .collect();
+    assert!(
+        bonuses
+            .windows(2)
+            .all(|p| p[0]["created_at"].as_i64() >= p[1]["created_at"].as_i64()),
+        "newest first: {bonuses:?}"
+    );
+    listed.sort();
     assert_eq!(
         listed,
         [
-            (ALICE, "0.75"),
+            (PROLIFIC_PID, "2.50"),
             (MTURK_WORKER, "1.00"),
-            (PROLIFIC_PID, "2.50")
-        ],
-        "newest first"
+            (ALICE, "0.75")
+        ]
     );
     assert!(bonuses.iter().all(|b| b["actor"] == "admin:admin"
         && b["created_at"].as_i64().is_some_and(|t| t > 0)));
