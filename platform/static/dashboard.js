@@ -136,6 +136,7 @@
     if (w.blocked) tr.className = "blocked";
     tr.insertCell().appendChild(workerId(w.worker_id, w.worker_id_masked));
     for (const text of workerText(w)) tr.insertCell().textContent = text;
+    tr.cells[8].className = "when";
     const actions = tr.insertCell();
     actions.className = "actions";
     actions.append(...workerActions(w, csrf).childNodes);

@@ -189,7 +189,7 @@ async fn workers_are_managed_from_their_row(db: TestDb) {
     let page = admin.page(study, "").await;
     let trail = section(&page, "audit-section");
     let first = trail
-        .split("<tr><td>")
+        .split("<tr><td class=\"when\">")
         .nth(1)
         .expect("an audit row")
         .to_string();
