@@ -125,7 +125,7 @@ pub fn read_triplets_from<R: Read>(
                 ));
             }
             let id = |k: usize| -> std::result::Result<u32, String> {
-                let s = record[k].trim();
+                let s = unquote(&record[k]);
                 table
                     .index_of(s)
                     .map(|i| i as u32)
@@ -142,10 +142,10 @@ pub fn read_triplets_from<R: Read>(
             };
             let worker = worker_col.map(|k| {
                 let n = workers.len() as u32;
-                *workers.entry(record[k].trim().to_owned()).or_insert(n)
+                *workers.entry(unquote(&record[k]).to_owned()).or_insert(n)
             });
             let key = match tuple_col {
-                Some(k) => TupleKey::Id(record[k].trim().to_owned()),
+                Some(k) => TupleKey::Id(unquote(&record[k]).to_owned()),
                 None => TupleKey::Question(a, b.min(c), b.max(c)),
             };
             let n = tuples.len() as u32;
@@ -176,6 +176,17 @@ pub fn read_triplets_from<R: Read>(
         });
     }
     Ok(out)
+}
+
+/// A cell trimmed, without the `'` a spreadsheet-safe export (the platform's) puts before a
+/// value starting with `=`, `+`, `-`, `@`, a tab, a carriage return or `'` so that spreadsheets
+/// do not run it as a formula.
+fn unquote(cell: &str) -> &str {
+    let cell = cell.trim();
+    match cell.strip_prefix('\'') {
+        Some(rest) if rest.starts_with(['=', '+', '-', '@', '\t', '\r', '\'']) => rest.trim(),
+        _ => cell,
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
@@ -352,6 +363,24 @@ mod tests {
         .unwrap();
         assert_eq!(s.triplets[0].tuple, s.triplets[1].tuple);
         assert_eq!(s.triplets[1].worker, Some(1));
+    }
+
+    #[test]
+    fn spreadsheet_safe_cells_read_back() {
+        let ids = ["-1.svg", "+1.svg", "'q.svg", "x"]
+            .map(String::from)
+            .to_vec();
+        let table = FeatureTable::new(vec!["f".into()], ids, vec![0.0, 1.0, 2.0, 3.0]).unwrap();
+        let text = "a,b,c,q,worker,tuple_id\n'-1.svg,'+1.svg,''q.svg,1,'@w,t\n\
+                    x,'+1.svg,'-1.svg,0,@w,t\n";
+        let s = read_triplets_from(text.as_bytes(), Path::new("t.csv"), &table, false).unwrap();
+        assert_eq!(
+            (s.triplets[0].a, s.triplets[0].b, s.triplets[0].c),
+            (0, 1, 2)
+        );
+        assert_eq!(s.triplets[0].worker, s.triplets[1].worker, "'@w is @w");
+        // A quote before anything else is part of the value.
+        assert_eq!(unquote("'abc"), "'abc");
     }
 
     #[test]

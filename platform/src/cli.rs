@@ -272,6 +272,10 @@ pub struct ExportArgs {
     /// Include HITs not completed.
     #[arg(long)]
     pub include_incomplete: bool,
+    /// Name workers by a pseudonym instead of their crowd platform id and leave out the payment
+    /// files (for sharing the data outside the research team).
+    #[arg(long)]
+    pub pseudonymous: bool,
 }
 
 /// `platform train`.
@@ -492,6 +496,7 @@ pub async fn run(cli: Cli) -> Result<()> {
                 include_controls: args.include_controls,
                 include_rejected: args.include_rejected,
                 include_incomplete: args.include_incomplete,
+                pseudonymous: args.pseudonymous,
             };
             let files = export::write_dir(&db, &s, opts, &args.public_url, &args.out).await?;
             outln!("wrote {} to {}", files.join(", "), args.out.display())?;

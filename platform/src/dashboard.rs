@@ -1,9 +1,10 @@
 //! Study statistics for the dashboard and `platform study status`: assignment counts,
 //! rejection rate, control-accuracy histogram, agreement on replicated tuples (with the majority
 //! and the leave-one-out noise ceiling), median seconds per question, answers over time, and the
-//! per-worker table. Computed from the stored rows on every request (no in-process state).
+//! per-worker table (newest HIT first, each worker named by their crowd platform's id).
+//! Computed from the stored rows on every request (no in-process state).
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet};
 
 use hmac::{Hmac, Mac};
 use serde::Serialize;
@@ -16,7 +17,9 @@ use crate::error::Result;
 use crate::ids::WorkerId;
 use crate::study::Study;
 
-/// A worker's pseudonym in exports and dashboards: HMAC of the study secret and the worker id.
+/// A worker's pseudonym for data shared outside the research team (the `pseudonymous` export
+/// option): HMAC of the study secret and the worker's row id, stable within a study and not
+/// linkable to the crowd platform's id without the secret.
 pub fn pseudonym(study: &Study, worker: WorkerId) -> String {
     let Ok(mut mac) = Hmac::<Sha256>::new_from_slice(study.secret.as_bytes()) else {
         return String::new();
@@ -68,15 +71,20 @@ pub struct Dashboard {
     pub answers_per_hour: Vec<(i64, i64)>,
 }
 
-/// One row of the per-worker table.
+/// One row of the per-worker table: one worker's HIT in the study.
 #[derive(Debug, Clone, Serialize, ToSchema)]
 pub struct WorkerRow {
-    /// Pseudonym.
-    pub worker: String,
+    /// The worker's id on their crowd platform: MTurk `workerId`, Prolific `PROLIFIC_PID`, the
+    /// `participant` of a direct link (what `blocked_workers` and every export name them by).
+    pub worker_id: String,
+    /// [`worker_id`](Self::worker_id) masked for the screen ([`mask`]).
+    pub worker_id_masked: String,
     /// Assignment id.
     pub assignment: i64,
     /// `mturk`, `prolific`, `direct`.
     pub source: String,
+    /// When the HIT started (Unix ms).
+    pub started_at: i64,
     /// Assignment status.
     pub status: String,
     /// Current decision.
@@ -91,6 +99,22 @@ pub struct WorkerRow {
     pub control_errors: i64,
     /// Median seconds per question.
     pub median_seconds: Option<f64>,
+    /// Whether the worker id is on the study's block list.
+    pub blocked: bool,
+    /// Bonuses recorded for this HIT, in cents.
+    pub bonus_cents: i64,
+}
+
+/// A worker id as the admin pages show it until clicked: enough to tell rows apart (the first
+/// three and last two characters of a long id), not enough to copy the id from a shared screen.
+pub fn mask(id: &str) -> String {
+    let chars: Vec<char> = id.chars().collect();
+    if chars.len() < 8 {
+        return "\u{2022}".repeat(4);
+    }
+    let head: String = chars[..3].iter().collect();
+    let tail: String = chars[chars.len() - 2..].iter().collect();
+    format!("{head}\u{2026}{tail}")
 }
 
 fn median(v: &mut [f64]) -> Option<f64> {
@@ -147,17 +171,27 @@ pub fn agreement(by_tuple: &HashMap<i64, Vec<bool>>) -> (i64, Option<f64>, Optio
 pub async fn compute(db: &Db, study: &Study) -> Result<(Dashboard, Vec<WorkerRow>)> {
     let mut d = Dashboard::default();
     let rows = sqlx::query(
-        "SELECT a.id, a.worker_id, a.source, a.status, a.decision, a.training_attempts, \
+        "SELECT a.id, w.external_id, a.source, a.started_at, a.status, a.decision, a.training_attempts, \
            (SELECT CAST(COUNT(*) AS BIGINT) FROM questions q WHERE q.assignment_id = a.id) AS questions, \
            (SELECT CAST(COUNT(*) AS BIGINT) FROM questions q WHERE q.assignment_id = a.id AND q.choice IS NOT NULL) AS answered, \
            (SELECT CAST(COUNT(*) AS BIGINT) FROM questions q JOIN tuples t ON t.id = q.tuple_id \
               WHERE q.assignment_id = a.id AND t.kind = 'control' \
-              AND (q.choice IS NULL OR q.choice <> t.expected)) AS control_errors \
-         FROM assignments a WHERE a.study_id = $1 ORDER BY a.started_at, a.id",
+              AND (q.choice IS NULL OR q.choice <> t.expected)) AS control_errors, \
+           (SELECT CAST(COALESCE(SUM(b.amount_cents), 0) AS BIGINT) FROM bonuses b \
+              WHERE b.assignment_id = a.id) AS bonus_cents \
+         FROM assignments a JOIN workers w ON w.id = a.worker_id \
+         WHERE a.study_id = $1 ORDER BY a.started_at DESC, a.id DESC",
     )
     .bind(study.id.0)
     .fetch_all(&db.pool)
     .await?;
+    // The block list may hold many thousand ids: one set lookup per row.
+    let blocked: HashSet<&str> = study
+        .settings
+        .blocked_workers
+        .iter()
+        .map(String::as_str)
+        .collect();
     let mut workers = Vec::with_capacity(rows.len());
     let mut hist: BTreeMap<i64, i64> = BTreeMap::new();
     for r in &rows {
@@ -181,10 +215,14 @@ pub async fn compute(db: &Db, study: &Study) -> Result<(Dashboard, Vec<WorkerRow
                 _ => {}
             }
         }
+        let worker_id: String = r.try_get("external_id")?;
         workers.push(WorkerRow {
-            worker: pseudonym(study, WorkerId(r.try_get("worker_id")?)),
+            worker_id_masked: mask(&worker_id),
+            blocked: blocked.contains(worker_id.as_str()),
+            worker_id,
             assignment: r.try_get("id")?,
             source: r.try_get("source")?,
+            started_at: r.try_get("started_at")?,
             status,
             decision,
             training_attempts: r.try_get("training_attempts")?,
@@ -192,6 +230,7 @@ pub async fn compute(db: &Db, study: &Study) -> Result<(Dashboard, Vec<WorkerRow
             questions: r.try_get("questions")?,
             control_errors: errors,
             median_seconds: None,
+            bonus_cents: r.try_get("bonus_cents")?,
         });
     }
     d.rejection_rate = (d.completed > 0).then(|| d.rejected as f64 / d.completed as f64);
@@ -273,6 +312,15 @@ mod tests {
         assert_eq!(n, 2);
         assert!((maj.unwrap_or(0.0) - 4.0 / 5.0).abs() < 1e-12);
         assert!((ceil.unwrap_or(0.0) - 3.0 / 5.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn worker_ids_are_masked_for_the_screen() {
+        assert_eq!(mask("A1B2C3D4E5F6G7"), "A1B\u{2026}G7");
+        assert_eq!(mask("60ffe5c8371090c7041d43f8"), "60f\u{2026}f8");
+        // Short ids would show most of themselves: fully masked.
+        assert_eq!(mask("w1"), "\u{2022}\u{2022}\u{2022}\u{2022}");
+        assert!(!mask("worker-1").contains("worker-1"));
     }
 
     #[test]

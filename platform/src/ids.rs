@@ -86,6 +86,11 @@ typed_id!(
     ModelId
 );
 
+typed_id!(
+    /// A bonus recorded for a worker's HIT.
+    BonusId
+);
+
 /// Ids stay below 2^53, the largest integer a JavaScript number holds exactly.
 pub const ID_LIMIT: i64 = 1 << 53;
 

@@ -36,6 +36,7 @@ pub mod answer_writer;
 pub mod api;
 pub mod assets;
 pub mod bench;
+pub mod bonus;
 pub mod cli;
 pub mod dashboard;
 pub mod db;

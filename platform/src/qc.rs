@@ -120,6 +120,10 @@ pub async fn record(
 pub struct RuleOutcome {
     /// The assignment.
     pub assignment: AssignmentId,
+    /// The worker's id on their crowd platform (as in the worker table and the exports).
+    pub worker_id: String,
+    /// `mturk`, `prolific` or `direct`.
+    pub source: String,
     /// Wrong or unanswered controls.
     pub control_errors: i64,
     /// Its current decision.
@@ -132,8 +136,9 @@ pub struct RuleOutcome {
     pub overridden: bool,
 }
 
-/// Evaluates the rule with `threshold` on every completed assignment of `study`; with
-/// `apply`, records the changed decisions (admin overrides are kept).
+/// Evaluates the rule with `threshold` on every completed assignment of `study` (the newest
+/// first, as the worker table lists them); with `apply`, records the changed decisions (admin
+/// overrides are kept).
 pub async fn evaluate(
     db: &Db,
     study: StudyId,
@@ -145,13 +150,14 @@ pub async fn evaluate(
         return Err(AppError::BadRequest("threshold must be at least 1".into()));
     }
     let rows = sqlx::query(
-        "SELECT a.id, a.decision, \
+        "SELECT a.id, a.decision, a.source, w.external_id, \
            (SELECT CAST(COUNT(*) AS BIGINT) FROM questions q JOIN tuples t ON t.id = q.tuple_id \
             WHERE q.assignment_id = a.id AND t.kind = 'control' \
             AND (q.choice IS NULL OR q.choice <> t.expected)) AS errors, \
            (SELECT d.actor FROM decisions d WHERE d.assignment_id = a.id \
             ORDER BY d.decided_at DESC, d.id DESC LIMIT 1) AS last_actor \
-         FROM assignments a WHERE a.study_id = $1 AND a.status = 'completed' ORDER BY a.started_at, a.id",
+         FROM assignments a JOIN workers w ON w.id = a.worker_id \
+         WHERE a.study_id = $1 AND a.status = 'completed' ORDER BY a.started_at DESC, a.id DESC",
     )
     .bind(study.0)
     .fetch_all(&db.pool)
@@ -165,6 +171,8 @@ pub async fn evaluate(
         let v = verdict(errors, threshold);
         out.push(RuleOutcome {
             assignment: AssignmentId(r.try_get("id")?),
+            worker_id: r.try_get("external_id")?,
+            source: r.try_get("source")?,
             control_errors: errors,
             changes: !overridden && current.as_deref() != Some(v),
             current,
@@ -236,6 +244,10 @@ pub async fn override_decision(
 pub struct DecisionRecord {
     /// The assignment.
     pub assignment: AssignmentId,
+    /// The worker's id on their crowd platform (as in the worker table and the exports).
+    pub worker_id: String,
+    /// `mturk`, `prolific` or `direct`.
+    pub source: String,
     /// `approved` or `rejected`.
     pub decision: String,
     /// The rule (`control_errors>=2`) or `override`.
@@ -248,12 +260,14 @@ pub struct DecisionRecord {
     pub decided_at: i64,
 }
 
-/// The audit trail of a study, oldest first.
+/// The audit trail of a study, newest first.
 pub async fn audit(db: &Db, study: StudyId) -> Result<Vec<DecisionRecord>> {
     let rows = sqlx::query(
-        "SELECT d.assignment_id, d.decision, d.rule, d.actor, d.control_errors, d.decided_at \
+        "SELECT d.assignment_id, d.decision, d.rule, d.actor, d.control_errors, d.decided_at, \
+           a.source, w.external_id \
          FROM decisions d JOIN assignments a ON a.id = d.assignment_id \
-         WHERE a.study_id = $1 ORDER BY d.decided_at, d.id",
+           JOIN workers w ON w.id = a.worker_id \
+         WHERE a.study_id = $1 ORDER BY d.decided_at DESC, d.id DESC",
     )
     .bind(study.0)
     .fetch_all(&db.pool)
@@ -262,6 +276,8 @@ pub async fn audit(db: &Db, study: StudyId) -> Result<Vec<DecisionRecord>> {
         .map(|r| {
             Ok(DecisionRecord {
                 assignment: AssignmentId(r.try_get("assignment_id")?),
+                worker_id: r.try_get("external_id")?,
+                source: r.try_get("source")?,
                 decision: r.try_get("decision")?,
                 rule: r.try_get("rule")?,
                 actor: r.try_get("actor")?,

@@ -283,6 +283,81 @@ pub async fn started(db: &Db, study: StudyId) -> Result<bool> {
 /// Applies `patch` to a study's stored settings in one write transaction and records each
 /// changed field (old and new value, `actor`, time).
 pub async fn edit(db: &Db, study: StudyId, patch: &SettingsPatch, actor: &str) -> Result<Edited> {
+    edit_with(db, study, actor, |_| Ok(patch.clone())).await
+}
+
+/// Puts a worker id on the study's block list (`blocked`) or takes it off, as one audited
+/// change of `blocked_workers`; blocking also ends the HIT the worker has open in the study
+/// (see [`edit`]). The list is read and written in the same transaction, so two admins
+/// blocking two workers at once both stay blocked.
+pub async fn set_blocked(
+    db: &Db,
+    study: StudyId,
+    worker: &str,
+    blocked: bool,
+    actor: &str,
+) -> Result<Edited> {
+    edit_with(db, study, actor, |current| {
+        let mut list = current.blocked_workers.clone();
+        if blocked && !list.iter().any(|w| w == worker) {
+            list.push(worker.to_string());
+        }
+        if !blocked {
+            list.retain(|w| w != worker);
+        }
+        Ok(SettingsPatch {
+            blocked_workers: Some(list),
+            ..SettingsPatch::default()
+        })
+    })
+    .await
+}
+
+/// A worker's block state after [`block_worker_of`].
+#[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
+pub struct BlockOutcome {
+    /// The worker's id on their crowd platform (the block list's entry).
+    pub worker_id: String,
+    /// Whether the worker is blocked now.
+    pub blocked: bool,
+    /// Whether the block list changed (false: the worker already was as asked).
+    pub changed: bool,
+}
+
+/// Blocks (or unblocks) the worker of `assignment` by their crowd platform id, the way the
+/// study's block list names workers: [`set_blocked`].
+pub async fn block_worker_of(
+    db: &Db,
+    study: StudyId,
+    assignment: AssignmentId,
+    blocked: bool,
+    actor: &str,
+) -> Result<BlockOutcome> {
+    let row = sqlx::query(
+        "SELECT w.external_id FROM assignments a JOIN workers w ON w.id = a.worker_id \
+         WHERE a.id = $1 AND a.study_id = $2",
+    )
+    .bind(assignment.0)
+    .bind(study.0)
+    .fetch_optional(&db.pool)
+    .await?
+    .ok_or(AppError::NotFound("assignment"))?;
+    let worker: String = row.try_get("external_id")?;
+    let edited = set_blocked(db, study, &worker, blocked, actor).await?;
+    Ok(BlockOutcome {
+        worker_id: worker,
+        blocked,
+        changed: !edited.changes.is_empty(),
+    })
+}
+
+/// [`edit`] with the patch made from the settings as stored when the transaction read them.
+async fn edit_with(
+    db: &Db,
+    study: StudyId,
+    actor: &str,
+    make_patch: impl FnOnce(&StudySettings) -> Result<SettingsPatch>,
+) -> Result<Edited> {
     let mut tx = db.begin_write().await?;
     // PostgreSQL: lock the row, so two concurrent edits apply one after the other instead of
     // the second overwriting the first (SQLite's BEGIN IMMEDIATE already serialises writers).
@@ -298,7 +373,8 @@ pub async fn edit(db: &Db, study: StudyId, patch: &SettingsPatch, actor: &str) -
     let current: StudySettings =
         serde_json::from_str(&row.try_get::<String, _>("settings")?).map_err(AppError::internal)?;
     let started = has_assignments(&mut tx, study).await?;
-    let (settings, changes) = apply_patch(&current, patch, started)?;
+    let patch = make_patch(&current)?;
+    let (settings, changes) = apply_patch(&current, &patch, started)?;
     if changes.iter().any(|c| c.field == "exclude_workers_of") {
         for other in &settings.exclude_workers_of {
             if *other == study {

@@ -354,6 +354,33 @@ async fn worker_and_admin_flows_in_chromium() {
     })
     .await;
     shot(&c, &artifacts, "09-admin-dashboard-live.png").await;
+    // The worker id the live refresh wrote is masked until clicked, and stays revealed across
+    // the next refreshes.
+    let id_css = format!(
+        "#workers tr[data-assignment=\"{}\"] details.worker-id",
+        new_row.assignment
+    );
+    let before = worker_id_shown(&c, &id_css).await;
+    assert_ne!(before[0], json!("api-0"), "masked: {before}");
+    assert_eq!(
+        (&before[1], &before[2]),
+        (&json!(false), &json!("api-0")),
+        "{before}"
+    );
+    c.find(Locator::Css(&format!("{id_css} summary")))
+        .await
+        .expect("summary")
+        .click()
+        .await
+        .expect("reveal");
+    tokio::time::sleep(Duration::from_millis(2500)).await;
+    let after = worker_id_shown(&c, &id_css).await;
+    assert_eq!(
+        (&after[1], &after[2]),
+        (&json!(true), &json!("api-0")),
+        "{after}"
+    );
+    shot(&c, &artifacts, "09b-admin-worker-revealed.png").await;
     // The override form the script built posts with the CSRF token: reject the new worker's HIT
     // (the page reloads with the decision), then approve it again.
     assert!(all.iter().any(|w| w.assignment == new_row.assignment));
@@ -361,7 +388,7 @@ async fn worker_and_admin_flows_in_chromium() {
         mark(&c).await;
         // The live refresh may replace the row between finding and clicking: then find again.
         let css = format!(
-            "#workers tr[data-assignment=\"{}\"] form button",
+            "#workers tr[data-assignment=\"{}\"] form.decision-form button",
             new_row.assignment
         );
         let mut clicked = false;
@@ -534,7 +561,7 @@ async fn worker_rows(c: &Client) -> Vec<WorkerRowShown> {
         .execute(
             "return Array.from(document.querySelectorAll('#workers tr[data-assignment]')).map(r => \
              [r.dataset.assignment, r.cells[2].textContent, r.cells[3].textContent, \
-              r.cells[4].textContent, r.querySelectorAll('form button').length]);",
+              r.cells[4].textContent, r.querySelectorAll('form.decision-form button').length]);",
             vec![],
         )
         .await
@@ -571,4 +598,16 @@ async fn wait_rows(c: &Client, ok: impl Fn(&[WorkerRowShown]) -> bool) -> Vec<Wo
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
     panic!("the worker table did not update: {rows:?}");
+}
+
+/// The masked text, whether the full id is visible, and the full id of a worker-id cell.
+async fn worker_id_shown(c: &Client, css: &str) -> serde_json::Value {
+    c.execute(
+        "const d = document.querySelector(arguments[0]); \
+         return [d.querySelector('summary').textContent, \
+                 d.querySelector('code').checkVisibility(), d.querySelector('code').textContent];",
+        vec![json!(css)],
+    )
+    .await
+    .expect("read the worker id")
 }

@@ -180,17 +180,18 @@ async fn worker_flow(db: TestDb) {
     assert_eq!(resp.status().as_u16(), 200);
     let csv = resp.text().await.expect("csv");
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("a,b,c,q,worker,tuple_id"));
+    assert_eq!(lines.next(), Some("a,b,c,q,worker,tuple_id,worker_id"));
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 9, "12 questions minus 3 controls:\n{csv}");
     for row in &rows {
         let cols: Vec<&str> = row.split(',').collect();
-        assert_eq!(cols.len(), 6);
+        assert_eq!(cols.len(), 7);
         assert!(
             cols[0].ends_with(".svg") && cols[1].ends_with(".svg") && cols[2].ends_with(".svg")
         );
         assert!(cols[3] == "0" || cols[3] == "1");
-        assert!(cols[4].starts_with('W') && !cols[4].contains("worker-1"));
+        // The worker by the id of the study link (`participant`), as the study page shows it.
+        assert_eq!((cols[4], cols[6]), ("worker-1", "worker-1"));
     }
     // Curated controls by item name (unknown names are a clear 400).
     let first: Vec<&str> = rows[0].split(',').collect();

@@ -18,7 +18,7 @@ use crate::library;
 mod admin_session;
 mod models;
 mod study_page;
-mod time;
+pub(crate) mod time;
 mod upload;
 mod worker;
 

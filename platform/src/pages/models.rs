@@ -81,28 +81,34 @@ async fn admin_train(
     ApiPath(id): ApiPath<StudyId>,
     form: std::result::Result<ApiForm<TrainForm>, AppError>,
 ) -> Response {
-    page(
-        async {
-            let admin = admin?;
-            let ApiForm(f) = form?;
-            admin.check_csrf(f.csrf.as_deref())?;
-            let lambda =
-                match f.lambda.as_deref().map(str::trim) {
-                    None | Some("") => None,
-                    Some(text) => Some(text.parse::<f64>().map_err(|_| {
-                        AppError::BadRequest(format!("λ: {text:?} is not a number"))
-                    })?),
-                };
-            let s = study::load(&state.db, id).await?;
-            let opts = TrainOptions {
-                lambda,
-                ..TrainOptions::default()
-            };
-            train::start(&state.db, &s, opts).await?;
-            Ok(Redirect::to(&format!("/admin/studies/{id}#models")).into_response())
+    let (admin, f) = match super::study_page::checked(admin, form, |f| f.csrf.as_deref()) {
+        Ok(x) => x,
+        Err(e) => return page(Err(e)),
+    };
+    let typed = f.lambda.clone().unwrap_or_default();
+    let run = async {
+        let lambda = match typed.trim() {
+            "" => None,
+            text => Some(
+                text.parse::<f64>()
+                    .map_err(|_| AppError::BadRequest(format!("λ: {text:?} is not a number")))?,
+            ),
+        };
+        let s = study::load(&state.db, id).await?;
+        let opts = TrainOptions {
+            lambda,
+            ..TrainOptions::default()
+        };
+        train::start(&state.db, &s, opts).await?;
+        Ok::<_, AppError>(Redirect::to(&format!("/admin/studies/{id}#models")).into_response())
+    };
+    match run.await {
+        Ok(r) => r,
+        Err(e) => {
+            let submitted = super::study_page::Submitted::Train { lambda: typed };
+            super::study_page::form_error(&state, &admin, id, submitted, e).await
         }
-        .await,
-    )
+    }
 }
 
 async fn admin_report_redirect(

@@ -1,18 +1,30 @@
-//! Readable UTC times for the pages.
+//! Readable UTC times for the pages, and ISO 8601 UTC times for the exports.
 
 /// `YYYY-MM-DD HH:00 UTC` of a Unix-ms time (civil-from-days, proleptic Gregorian).
-pub(super) fn utc_hour(ms: i64) -> String {
+pub(crate) fn utc_hour(ms: i64) -> String {
     let (year, month, day, secs) = utc_civil(ms);
     format!("{year:04}-{month:02}-{day:02} {:02}:00 UTC", secs / 3600)
 }
 
 /// `YYYY-MM-DD HH:MM UTC` of a Unix-ms time.
-pub(super) fn utc_minute(ms: i64) -> String {
+pub(crate) fn utc_minute(ms: i64) -> String {
     let (year, month, day, secs) = utc_civil(ms);
     format!(
         "{year:04}-{month:02}-{day:02} {:02}:{:02} UTC",
         secs / 3600,
         secs % 3600 / 60
+    )
+}
+
+/// `YYYY-MM-DDTHH:MM:SS.sssZ` (ISO 8601, UTC) of a Unix-ms time, for machine-readable files.
+pub(crate) fn iso8601(ms: i64) -> String {
+    let (year, month, day, secs) = utc_civil(ms);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}.{:03}Z",
+        secs / 3600,
+        secs % 3600 / 60,
+        secs % 60,
+        ms.rem_euclid(1000)
     )
 }
 
@@ -44,5 +56,7 @@ mod tests {
         assert_eq!(utc_hour(951_782_400_000), "2000-02-29 00:00 UTC");
         // 2026-11-22 03:07:59 UTC.
         assert_eq!(utc_minute(1_795_316_879_000), "2026-11-22 03:07 UTC");
+        assert_eq!(iso8601(1_795_316_879_042), "2026-11-22T03:07:59.042Z");
+        assert_eq!(iso8601(0), "1970-01-01T00:00:00.000Z");
     }
 }
