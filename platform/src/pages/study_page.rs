@@ -47,8 +47,8 @@ struct AdminStudy {
     agreement: String,
     ceiling: String,
     median: String,
-    /// `(control errors, completed HITs)`, drawn as `<meter>`s up to `histogram_max`.
-    histogram: Vec<(i64, i64)>,
+    /// Completed HITs by control errors, drawn as `<meter>`s up to `histogram_max`.
+    histogram: Vec<dashboard::ErrorCount>,
     histogram_max: i64,
     per_hour: Vec<(String, i64)>,
     threshold: u32,
@@ -105,7 +105,7 @@ async fn study_page(
     let histogram_max = d
         .control_error_histogram
         .iter()
-        .map(|x| x.1)
+        .map(|bin| bin.count)
         .max()
         .unwrap_or(1)
         .max(1);
@@ -127,7 +127,7 @@ async fn study_page(
         per_hour: d
             .answers_per_hour
             .iter()
-            .map(|&(h, n)| (utc_hour(h), n))
+            .map(|h| (utc_hour(h.hour), h.count))
             .collect(),
         d,
         threshold: s.settings.reject_at_control_errors,
