@@ -607,6 +607,12 @@ async fn schemathesis_config(server: &Server, study: i64) -> String {
     let positions: Vec<i64> = (0..12).collect();
     format!(
         r#"
+# Fail on what would make the run test less than it seems: the admin session not accepted
+# (every admin operation answering 401/403), a scheme of this file missing from the document,
+# a pattern or reference of the document the fuzzer cannot use.
+[warnings]
+fail-on = ["missing_auth", "unused_openapi_auth", "unsupported_regex", "unresolvable_reference"]
+
 [auth.openapi.session]
 api_key = "{session}"
 

@@ -27,7 +27,7 @@ use crate::error::ErrorBody;
 
 mod admin;
 mod models;
-mod quality;
+pub mod quality;
 pub mod schema;
 mod settings;
 mod worker;

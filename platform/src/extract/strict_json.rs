@@ -149,7 +149,7 @@ impl<'de> Deserializer<'de> for Strict<'de> {
     fn deserialize_map<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Error> {
         match self.0 {
             Value::Object(map) => visit_object(map, visitor),
-            other => Err(de::Error::invalid_type(unexpected(other), &visitor)),
+            other => Err(de::Error::invalid_type(unexpected(other), &"a JSON object")),
         }
     }
 
@@ -300,7 +300,7 @@ mod tests {
     #[test]
     fn structs_only_from_objects() {
         let e = from_slice::<Inner>(b"[1, 2.0]").unwrap_err();
-        assert!(e.contains("invalid type: sequence"), "{e}");
+        assert_eq!(e, "invalid type: sequence, expected a JSON object");
         let e = from_slice::<Outer>(br#"{"inner": [1, 2], "list": []}"#).unwrap_err();
         assert!(e.starts_with("inner: invalid type: sequence"), "{e}");
         let e = from_slice::<Outer>(br#"{"list": [{"n": 1, "x": 1}, [2, 2]]}"#).unwrap_err();
