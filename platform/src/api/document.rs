@@ -292,4 +292,22 @@ mod tests {
             }
         }
     }
+
+    #[test]
+    fn reason_codes_and_their_count_follow_the_list() {
+        let doc = serde_json::to_value(ApiDoc::openapi()).expect("document as JSON");
+        let schemas = &doc["components"]["schemas"];
+        let codes: Vec<&str> = crate::flow::REASONS.iter().map(|(_, c, _)| *c).collect();
+        assert_eq!(schemas["ReasonCode"]["enum"], serde_json::json!(codes));
+        // `max_items` is a literal in the attribute: it must be the list's length.
+        assert_eq!(
+            schemas["ReasonsRequest"]["properties"]["reasons"]["maxItems"],
+            codes.len()
+        );
+        let files = schemas["ExportFile"]["enum"]
+            .as_array()
+            .expect("files")
+            .len();
+        assert_eq!(files, crate::export::FILES.len());
+    }
 }
