@@ -21,24 +21,30 @@ use crate::extract::ApiPath;
 struct Asset {
     name: &'static str,
     content_type: &'static str,
-    body: &'static str,
+    body: &'static [u8],
 }
 
 const ASSETS: &[Asset] = &[
     Asset {
         name: "style.css",
         content_type: "text/css; charset=utf-8",
-        body: include_str!("../static/style.css"),
+        body: include_bytes!("../static/style.css"),
     },
     Asset {
         name: "question.js",
         content_type: "text/javascript; charset=utf-8",
-        body: include_str!("../static/question.js"),
+        body: include_bytes!("../static/question.js"),
     },
     Asset {
         name: "dashboard.js",
         content_type: "text/javascript; charset=utf-8",
-        body: include_str!("../static/dashboard.js"),
+        body: include_bytes!("../static/dashboard.js"),
+    },
+    // 32×32 PNG in an ICO container: three dots, a triplet, on the links' blue.
+    Asset {
+        name: "favicon.ico",
+        content_type: "image/x-icon",
+        body: include_bytes!("../static/favicon.ico"),
     },
 ];
 
@@ -47,7 +53,7 @@ static URLS: LazyLock<Vec<(&'static str, String)>> = LazyLock::new(|| {
     ASSETS
         .iter()
         .map(|a| {
-            let hash = hex::encode(&Sha256::digest(a.body.as_bytes())[..6]);
+            let hash = hex::encode(&Sha256::digest(a.body)[..6]);
             (a.name, format!("/static/{}?v={hash}", a.name))
         })
         .collect()
@@ -64,6 +70,17 @@ pub fn url(name: &str) -> String {
 /// `GET /static/{file}`: an embedded asset with its content type. The `v` query parameter only
 /// busts caches, so it is not checked.
 pub async fn serve(ApiPath(file): ApiPath<String>) -> Result<Response> {
+    asset_response(&file, "public, max-age=31536000, immutable")
+}
+
+/// `GET /favicon.ico`, where browsers look for it without a `<link rel="icon">` (the JSON
+/// API, the stored model reports); the pages link the versioned `/static/favicon.ico`.
+pub async fn favicon() -> Result<Response> {
+    // Unversioned: cached for a day, not for a year.
+    asset_response("favicon.ico", "public, max-age=86400")
+}
+
+fn asset_response(file: &str, cache: &'static str) -> Result<Response> {
     let asset = ASSETS
         .iter()
         .find(|a| a.name == file)
@@ -71,7 +88,7 @@ pub async fn serve(ApiPath(file): ApiPath<String>) -> Result<Response> {
     Ok((
         [
             (header::CONTENT_TYPE, asset.content_type),
-            (header::CACHE_CONTROL, "public, max-age=31536000, immutable"),
+            (header::CACHE_CONTROL, cache),
         ],
         asset.body,
     )

@@ -50,8 +50,8 @@ pub struct Dashboard {
     pub rejected: i64,
     /// rejected / completed.
     pub rejection_rate: Option<f64>,
-    /// Completed HITs by number of control errors: `[errors, count]`.
-    pub control_error_histogram: Vec<(i64, i64)>,
+    /// Completed HITs by number of control errors, fewest errors first.
+    pub control_error_histogram: Vec<ErrorCount>,
     /// Slots in the study (main tuples × R).
     pub slots: i64,
     /// Slots claimed by an assignment.
@@ -67,8 +67,26 @@ pub struct Dashboard {
     pub noise_ceiling: Option<f64>,
     /// Median seconds per question (client-measured).
     pub median_seconds_per_question: Option<f64>,
-    /// Answers per hour: `[hour start (Unix ms), count]`.
-    pub answers_per_hour: Vec<(i64, i64)>,
+    /// Answers per hour, oldest first (hours without answers are left out).
+    pub answers_per_hour: Vec<HourCount>,
+}
+
+/// One bar of the control-error histogram.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, ToSchema)]
+pub struct ErrorCount {
+    /// Wrong or unanswered controls in a HIT.
+    pub errors: i64,
+    /// Completed HITs with that many.
+    pub count: i64,
+}
+
+/// The answers stored in one hour.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, ToSchema)]
+pub struct HourCount {
+    /// The hour's start (Unix ms, UTC).
+    pub hour: i64,
+    /// Answers stored in it.
+    pub count: i64,
 }
 
 /// One row of the per-worker table: one worker's HIT in the study.
@@ -234,7 +252,10 @@ pub async fn compute(db: &Db, study: &Study) -> Result<(Dashboard, Vec<WorkerRow
         });
     }
     d.rejection_rate = (d.completed > 0).then(|| d.rejected as f64 / d.completed as f64);
-    d.control_error_histogram = hist.into_iter().collect();
+    d.control_error_histogram = hist
+        .into_iter()
+        .map(|(errors, count)| ErrorCount { errors, count })
+        .collect();
 
     let slots = sqlx::query(
         "SELECT CAST(COUNT(*) AS BIGINT) AS n, CAST(COUNT(assignment_id) AS BIGINT) AS claimed \
@@ -287,7 +308,10 @@ pub async fn compute(db: &Db, study: &Study) -> Result<(Dashboard, Vec<WorkerRow
     d.agreement_with_majority = with_majority;
     d.noise_ceiling = ceiling;
     d.median_seconds_per_question = median(&mut seconds);
-    d.answers_per_hour = per_hour.into_iter().collect();
+    d.answers_per_hour = per_hour
+        .into_iter()
+        .map(|(hour, count)| HourCount { hour, count })
+        .collect();
     for w in &mut workers {
         if let Some(v) = per_assignment.get_mut(&w.assignment) {
             w.median_seconds = median(v);

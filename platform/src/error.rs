@@ -111,18 +111,27 @@ pub struct ErrorBody {
     pub error: String,
 }
 
+/// The public message of an error response made from an [`AppError`], in the response's
+/// extensions: outside `/api/` the server shows it as an HTML page instead of the JSON body
+/// (a rejected path or form of a page, an unknown URL), see [`crate::app`].
+#[derive(Debug, Clone)]
+pub struct PublicError(pub String);
+
 impl IntoResponse for AppError {
     fn into_response(self) -> Response {
         let status = self.status();
         if status.is_server_error() {
             eprintln!("error: {self}");
         }
-        (
+        let message = self.public_message();
+        let mut response = (
             status,
             axum::Json(ErrorBody {
-                error: self.public_message(),
+                error: message.clone(),
             }),
         )
-            .into_response()
+            .into_response();
+        response.extensions_mut().insert(PublicError(message));
+        response
     }
 }

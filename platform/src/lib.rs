@@ -19,7 +19,8 @@ use std::sync::Arc;
 
 use axum::Router;
 use axum::extract::DefaultBodyLimit;
-use axum::http::{HeaderValue, header};
+use axum::http::{HeaderValue, StatusCode, header};
+use axum::response::Response;
 use tower_http::set_header::SetResponseHeaderLayer;
 
 /// `println!` that returns [`error::AppError::Stdout`] instead of panicking when standard
@@ -111,7 +112,9 @@ pub fn app(state: AppState) -> Router {
         .merge(pages::routes())
         .layer(DefaultBodyLimit::max(limit))
         .merge(upload)
+        .route("/favicon.ico", axum::routing::get(assets::favicon))
         .fallback(|| async { error::AppError::NotFound("page") })
+        .layer(axum::middleware::from_fn(html_errors))
         .layer(axum::middleware::from_fn(assets::csp))
         .layer(SetResponseHeaderLayer::overriding(
             header::REFERRER_POLICY,
@@ -122,6 +125,34 @@ pub fn app(state: AppState) -> Router {
             HeaderValue::from_static("nosniff"),
         ))
         .with_state(state)
+}
+
+/// Middleware: an error response made from an [`error::AppError`] outside `/api/` (and
+/// `/healthz`) becomes an HTML page with the same status, for browsers: an unknown URL, or a
+/// page's path or form its extractor rejected before the handler could render the error.
+/// The JSON API keeps its JSON errors.
+async fn html_errors(req: axum::extract::Request, next: axum::middleware::Next) -> Response {
+    let json = req.uri().path().starts_with("/api/") || req.uri().path() == "/healthz";
+    let response = next.run(req).await;
+    if json {
+        return response;
+    }
+    match response.extensions().get::<error::PublicError>() {
+        Some(error::PublicError(message)) => pages::status_page(response.status(), message.clone()),
+        // axum's own empty 405 (a GET of a form's address, say); the Allow header stays.
+        None if response.status() == StatusCode::METHOD_NOT_ALLOWED => {
+            let allow = response.headers().get(header::ALLOW).cloned();
+            let mut page = pages::status_page(
+                StatusCode::METHOD_NOT_ALLOWED,
+                "this address is not a page: it takes a form".into(),
+            );
+            if let Some(allow) = allow {
+                page.headers_mut().insert(header::ALLOW, allow);
+            }
+            page
+        }
+        None => response,
+    }
 }
 
 /// Serves `app` on `listener` until Ctrl-C / SIGTERM.

@@ -127,8 +127,10 @@ pub struct RuleOutcome {
     /// Wrong or unanswered controls.
     pub control_errors: i64,
     /// Its current decision.
+    #[schema(value_type = Option<crate::api::quality::Decision>)]
     pub current: Option<String>,
     /// The rule's verdict.
+    #[schema(value_type = crate::api::quality::Decision)]
     pub verdict: String,
     /// Whether applying would change the decision.
     pub changes: bool,
@@ -248,7 +250,8 @@ pub struct DecisionRecord {
     pub worker_id: String,
     /// `mturk`, `prolific` or `direct`.
     pub source: String,
-    /// `approved` or `rejected`.
+    /// The decision.
+    #[schema(value_type = crate::api::quality::Decision)]
     pub decision: String,
     /// The rule (`control_errors>=2`) or `override`.
     pub rule: String,

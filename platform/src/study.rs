@@ -34,51 +34,71 @@ impl MturkMode {
     }
 }
 
+/// The largest control-error threshold (a HIT has at most 499 controls).
+pub const MAX_CONTROL_ERRORS: u32 = 500;
+
 /// A study's settings. `Default` is the paper's set-up (Garces et al. 2014 §5.4).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct StudySettings {
     /// Text shown to workers before they start (plain text; also MTurk's preview).
+    #[schema(max_length = 5000)]
     pub description: String,
     /// Instructions shown on the start page (Markdown without raw HTML; `![caption](item:NAME)`
     /// shows the library item NAME).
+    #[schema(max_length = 20000)]
     pub instructions: String,
     /// Show a worked example (a practice triplet with its answer) under the instructions, as
     /// the thesis does before the test (Fig. 5.2, left).
     pub show_worked_example: bool,
     /// Informed-consent text (Markdown without raw HTML). Not empty: workers must tick "I
     /// agree" before they start; declining ends the task and is recorded.
+    #[schema(max_length = 20000)]
     pub consent: String,
     /// Questions in one HIT, controls included (paper: 50).
+    #[schema(minimum = 1, maximum = 500)]
     pub questions_per_hit: u32,
-    /// Hidden control questions in one HIT (paper: 5).
+    /// Hidden control questions in one HIT (paper: 5); fewer than `questions_per_hit`.
+    #[schema(minimum = 0, maximum = 499)]
     pub controls_per_hit: u32,
     /// Training triplets that must all be answered correctly first.
+    #[schema(minimum = 0, maximum = 20)]
     pub training_questions: u32,
     /// Training attempts before the worker is screened out.
+    #[schema(minimum = 1, maximum = 100)]
     pub max_training_attempts: u32,
     /// Main tuples to generate.
+    #[schema(minimum = 1, maximum = 1_000_000)]
     pub tuples: u32,
     /// Distinct workers per main tuple (R; the paper's test set used 10).
+    #[schema(minimum = 1, maximum = 100)]
     pub replication: u32,
     /// Probability of the "why did you choose?" questionnaire after a question (2016: 0.1).
+    #[schema(minimum = 0, maximum = 1)]
     pub reasons_probability: f64,
     /// A HIT with at least this many control errors is rejected (paper: 2).
+    #[schema(minimum = 1, maximum = 500)]
     pub reject_at_control_errors: u32,
     /// MTurk sandbox or live.
     pub mturk_mode: MturkMode,
     /// Prolific completion code (configured on Prolific) for the completion redirect.
+    #[schema(value_type = Option<crate::api::schema::ProlificCode>)]
     pub prolific_completion_code: Option<String>,
     /// Prolific screen-out code for workers who give up the training.
+    #[schema(value_type = Option<crate::api::schema::ProlificCode>)]
     pub prolific_screenout_code: Option<String>,
     /// Prolific code for participants who do not consent (a code set up on Prolific to ask
     /// them to return the study); without it they are asked to return the study.
+    #[schema(value_type = Option<crate::api::schema::ProlificCode>)]
     pub prolific_noconsent_code: Option<String>,
     /// Worker ids (MTurk/Prolific/direct) that may not take part.
+    #[schema(value_type = Vec<crate::api::schema::BlockedWorker>, max_items = 100_000)]
     pub blocked_workers: Vec<String>,
     /// Workers who took part in these studies may not take part.
+    #[schema(max_items = 1000)]
     pub exclude_workers_of: Vec<StudyId>,
-    /// Seed of the tuple generation.
+    /// Seed of the tuple generation (below 2^53, so JavaScript reads it exactly).
+    #[schema(minimum = 0, maximum = 9_007_199_254_740_991_u64)]
     pub seed: u64,
 }
 
@@ -127,7 +147,7 @@ impl StudySettings {
     /// Checks every field; the message names the offending one.
     pub fn validate(&self) -> Result<()> {
         let bad = |m: String| Err(AppError::BadRequest(m));
-        if self.description.len() > 5000 {
+        if self.description.chars().count() > 5000 {
             return bad("description: at most 5000 characters".into());
         }
         for (field, text) in [
@@ -177,8 +197,11 @@ impl StudySettings {
                 self.reasons_probability
             ));
         }
-        if self.reject_at_control_errors == 0 {
-            return bad("reject_at_control_errors: must be at least 1".into());
+        if !(1..=MAX_CONTROL_ERRORS).contains(&self.reject_at_control_errors) {
+            return bad(format!(
+                "reject_at_control_errors: {} not in 1..={MAX_CONTROL_ERRORS}",
+                self.reject_at_control_errors
+            ));
         }
         for code in [
             &self.prolific_completion_code,
@@ -201,12 +224,15 @@ impl StudySettings {
         if self
             .blocked_workers
             .iter()
-            .any(|w| w.trim().is_empty() || w.len() > 200)
+            .any(|w| w.trim().is_empty() || w.chars().count() > 200)
         {
             return bad("blocked_workers: each worker id must be 1-200 characters".into());
         }
         if self.exclude_workers_of.len() > 1000 {
             return bad("exclude_workers_of: at most 1000 studies".into());
+        }
+        if self.seed >= ID_LIMIT as u64 {
+            return bad(format!("seed: {} not below 2^53", self.seed));
         }
         Ok(())
     }

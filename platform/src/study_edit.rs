@@ -29,6 +29,7 @@ use crate::study::{MturkMode, StudySettings};
 #[serde(default, deny_unknown_fields)]
 pub struct SettingsPatch {
     /// Text shown to workers before they start (any time).
+    #[schema(max_length = 5000)]
     pub description: Option<String>,
     /// Instructions shown on the start page, Markdown (any time).
     pub instructions: Option<String>,
@@ -38,30 +39,38 @@ pub struct SettingsPatch {
     /// already agreed keep their record of the text they agreed to).
     pub consent: Option<String>,
     /// Questions in one HIT, controls included (only while no assignment exists).
+    #[schema(minimum = 1, maximum = 500)]
     pub questions_per_hit: Option<u32>,
     /// Hidden controls in one HIT (only while no assignment exists).
+    #[schema(minimum = 0, maximum = 499)]
     pub controls_per_hit: Option<u32>,
     /// Training questions (fixed: the training set was drawn at creation).
+    #[schema(minimum = 0, maximum = 20)]
     pub training_questions: Option<u32>,
     /// Training attempts before a worker is screened out (any time).
+    #[schema(minimum = 1, maximum = 100)]
     pub max_training_attempts: Option<u32>,
     /// Main tuples (fixed: the tuple pool was generated at creation).
+    #[schema(minimum = 1, maximum = 1_000_000)]
     pub tuples: Option<u32>,
     /// Replication R (fixed: the slots were created at creation).
+    #[schema(minimum = 1, maximum = 100)]
     pub replication: Option<u32>,
     /// Probability of the "why?" questionnaire, for HITs allocated from now on (any time).
+    #[schema(minimum = 0, maximum = 1)]
     pub reasons_probability: Option<f64>,
     /// Control errors that reject a HIT, for HITs completed from now on (any time).
+    #[schema(minimum = 1, maximum = 500)]
     pub reject_at_control_errors: Option<u32>,
     /// MTurk `sandbox` or `live` (only while no assignment exists).
     pub mturk_mode: Option<MturkMode>,
     /// Prolific completion code; `null` removes it (any time).
     #[serde(deserialize_with = "nullable")]
-    #[schema(value_type = Option<String>, nullable = true)]
+    #[schema(value_type = Option<crate::api::schema::ProlificCode>, nullable = true)]
     pub prolific_completion_code: Option<Option<String>>,
     /// Prolific screen-out code; `null` removes it (any time).
     #[serde(deserialize_with = "nullable")]
-    #[schema(value_type = Option<String>, nullable = true)]
+    #[schema(value_type = Option<crate::api::schema::ProlificCode>, nullable = true)]
     pub prolific_screenout_code: Option<Option<String>>,
     /// Prolific no-consent code; `null` removes it (any time).
     #[serde(deserialize_with = "nullable")]
@@ -69,10 +78,13 @@ pub struct SettingsPatch {
     pub prolific_noconsent_code: Option<Option<String>>,
     /// The whole list of blocked worker ids (any time; a blocked worker cannot start or resume,
     /// and a HIT they have open in this study ends: further answers are refused).
+    #[schema(value_type = Option<Vec<crate::api::schema::BlockedWorker>>, max_items = 100_000)]
     pub blocked_workers: Option<Vec<String>>,
     /// The whole list of studies whose workers may not take part (any time).
+    #[schema(max_items = 1000)]
     pub exclude_workers_of: Option<Vec<StudyId>>,
     /// Seed of the tuple generation (fixed).
+    #[schema(minimum = 0, maximum = 9_007_199_254_740_991_u64)]
     pub seed: Option<u64>,
 }
 

@@ -183,8 +183,8 @@
     try {
       const d = await getJson("/dashboard");
       document.querySelectorAll("[data-k]").forEach(el => { el.textContent = fmt(d[el.dataset.k], el.dataset.k); });
-      const max = Math.max(1, ...d.control_error_histogram.map(x => x[1]));
-      rows(document.getElementById("histogram"), d.control_error_histogram, ([e, n]) => {
+      const max = Math.max(1, ...d.control_error_histogram.map(bin => bin.count));
+      rows(document.getElementById("histogram"), d.control_error_histogram, ({ errors: e, count: n }) => {
         const bar = document.createElement("meter");
         bar.className = "bar";
         bar.min = 0;
@@ -193,7 +193,7 @@
         bar.textContent = String(n);
         return [String(e), String(n), bar];
       });
-      rows(document.getElementById("per-hour"), d.answers_per_hour, ([h, n]) => [hour(h), String(n)]);
+      rows(document.getElementById("per-hour"), d.answers_per_hour, ({ hour: h, count: n }) => [hour(h), String(n)]);
       refreshWorkers(document.getElementById("workers"), await getJson("/workers"));
       status.textContent = "Live: updated " + new Date().toISOString().slice(11, 19) + " UTC.";
       if (document.querySelector('#model-list tr[data-status="running"]')) {

@@ -807,6 +807,8 @@ async fn every_html_page_has_a_strict_csp_and_no_inline_code() {
         let h = resp.headers();
         let want = if path.contains(".css") {
             "text/css"
+        } else if path.contains(".ico") {
+            "image/x-icon"
         } else {
             "text/javascript"
         };

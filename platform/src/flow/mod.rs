@@ -60,27 +60,34 @@ impl Source {
     }
 }
 
+/// The answers the demographics' `gender` accepts (empty: not answered).
+pub const GENDERS: &[&str] = &["female", "male", "other", "undisclosed", ""];
+/// The answers the demographics' `art_experience` accepts (empty: not answered).
+pub const ART_EXPERIENCE: &[&str] = &["none", "some", "professional", ""];
+
 /// Optional demographics asked at the start.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Demographics {
     /// `female`, `male`, `other`, `undisclosed`.
+    #[schema(value_type = Option<crate::api::schema::Gender>)]
     pub gender: Option<String>,
     /// `none`, `some`, `professional`.
+    #[schema(value_type = Option<crate::api::schema::ArtExperience>)]
     pub art_experience: Option<String>,
 }
 
 impl Demographics {
     fn validate(&self) -> Result<()> {
         if let Some(g) = &self.gender
-            && !["female", "male", "other", "undisclosed", ""].contains(&g.as_str())
+            && !GENDERS.contains(&g.as_str())
         {
             return Err(AppError::BadRequest(
                 "gender: one of female, male, other, undisclosed".into(),
             ));
         }
         if let Some(a) = &self.art_experience
-            && !["none", "some", "professional", ""].contains(&a.as_str())
+            && !ART_EXPERIENCE.contains(&a.as_str())
         {
             return Err(AppError::BadRequest(
                 "art_experience: one of none, some, professional".into(),
@@ -91,23 +98,32 @@ impl Demographics {
 }
 
 /// Start parameters, as the crowd platform passes them (MTurk and Prolific names are accepted
-/// by the HTML start page and mapped onto these).
+/// by the HTML start page and mapped onto these). Every id present must have the form of an
+/// external id (1-128 letters, digits and `-_.:@`), whatever the source.
 #[derive(Debug, Clone, Default, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct StartRequest {
-    /// `mturk`, `prolific` or `direct` (default: inferred from the other fields).
+    /// `mturk`, `prolific` or `direct` (default: `mturk` with `turk_submit_to` or `hit_id`,
+    /// `prolific` with `prolific_session_id`, else `direct`).
     pub source: Option<Source>,
-    /// MTurk workerId, Prolific PROLIFIC_PID or a direct participant id.
+    /// MTurk workerId, Prolific PROLIFIC_PID or a direct participant id; required except in an
+    /// MTurk preview.
+    #[schema(pattern = "^[A-Za-z0-9._:@-]{1,128}$")]
     pub worker_id: Option<String>,
-    /// MTurk assignmentId (`ASSIGNMENT_ID_NOT_AVAILABLE` in preview).
+    /// MTurk assignmentId (`ASSIGNMENT_ID_NOT_AVAILABLE` in preview; required for MTurk).
+    #[schema(pattern = "^[A-Za-z0-9._:@-]{1,128}$")]
     pub assignment_id: Option<String>,
-    /// MTurk hitId.
+    /// MTurk hitId (required for MTurk).
+    #[schema(pattern = "^[A-Za-z0-9._:@-]{1,128}$")]
     pub hit_id: Option<String>,
-    /// MTurk turkSubmitTo.
+    /// MTurk turkSubmitTo: the MTurk site of the study's `mturk_mode` (required for MTurk).
+    #[schema(pattern = "^https://(www|workersandbox)\\.mturk\\.com/*$")]
     pub turk_submit_to: Option<String>,
-    /// Prolific STUDY_ID.
+    /// Prolific STUDY_ID (required for Prolific).
+    #[schema(pattern = "^[A-Za-z0-9._:@-]{1,128}$")]
     pub prolific_study_id: Option<String>,
-    /// Prolific SESSION_ID.
+    /// Prolific SESSION_ID (required for Prolific).
+    #[schema(pattern = "^[A-Za-z0-9._:@-]{1,128}$")]
     pub prolific_session_id: Option<String>,
     /// Optional demographics.
     pub demographics: Option<Demographics>,
@@ -115,6 +131,28 @@ pub struct StartRequest {
     /// settings): `true` agrees and starts, `false` declines (recorded; the task ends with the
     /// no-consent hand-back). Required for a first start of such a study; ignored on resume.
     pub consent: Option<bool>,
+}
+
+impl StartRequest {
+    /// Checks the form of every field present, whatever the source (the schema describes each
+    /// field alone); what the source requires is checked in [`start`].
+    fn check_forms(&self) -> Result<()> {
+        for (field, value) in [
+            ("worker_id", &self.worker_id),
+            ("assignment_id", &self.assignment_id),
+            ("hit_id", &self.hit_id),
+            ("prolific_study_id", &self.prolific_study_id),
+            ("prolific_session_id", &self.prolific_session_id),
+        ] {
+            if let Some(v) = value {
+                valid_external(field, v)?;
+            }
+        }
+        if let Some(to) = &self.turk_submit_to {
+            submit_site(to)?;
+        }
+        self.demographics.clone().unwrap_or_default().validate()
+    }
 }
 
 /// What starting did.
@@ -151,18 +189,20 @@ fn valid_external(field: &str, value: &str) -> Result<()> {
     Ok(())
 }
 
+/// Whether `turkSubmitTo` is MTurk's sandbox (true) or live site (false).
+fn submit_site(value: &str) -> Result<bool> {
+    match value.trim_end_matches('/') {
+        "https://workersandbox.mturk.com" => Ok(true),
+        "https://www.mturk.com" => Ok(false),
+        _ => Err(AppError::BadRequest(
+            "turk_submit_to: not an MTurk submit address".into(),
+        )),
+    }
+}
+
 /// Parses and checks `turkSubmitTo` against the study's MTurk mode.
 fn check_submit_to(value: &str, mode: MturkMode) -> Result<bool> {
-    let v = value.trim_end_matches('/');
-    let sandbox = match v {
-        "https://workersandbox.mturk.com" => true,
-        "https://www.mturk.com" => false,
-        _ => {
-            return Err(AppError::BadRequest(
-                "turk_submit_to: not an MTurk submit address".into(),
-            ));
-        }
-    };
+    let sandbox = submit_site(value)?;
     if sandbox != (mode == MturkMode::Sandbox) {
         return Err(AppError::BadRequest(format!(
             "this study runs on the MTurk {} site, but the HIT came from the {} site",
@@ -179,6 +219,7 @@ fn check_submit_to(value: &str, mode: MturkMode) -> Result<bool> {
 
 /// Starts (or resumes) a worker's assignment.
 pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOutcome> {
+    req.check_forms()?;
     let source = req
         .source
         .unwrap_or(if req.turk_submit_to.is_some() || req.hit_id.is_some() {
@@ -221,13 +262,12 @@ pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOut
         }
         Source::Direct => false,
     };
-    let external = req
-        .worker_id
-        .as_deref()
-        .ok_or_else(|| AppError::BadRequest("worker_id: required".into()))?;
+    let external = req.worker_id.as_deref().ok_or_else(|| {
+        AppError::BadRequest("worker_id: required (except in an MTurk preview)".into())
+    })?;
     valid_external("worker_id", external)?;
+    // Validated by `check_forms`.
     let demographics = req.demographics.clone().unwrap_or_default();
-    demographics.validate()?;
 
     if study.settings.blocked_workers.iter().any(|b| b == external) {
         return Err(AppError::Forbidden(
@@ -1142,6 +1182,7 @@ pub struct AnswerRequest {
     /// The chosen item (`left.id` or `right.id`).
     pub choice: ItemId,
     /// Milliseconds the worker spent on the question (client-measured, optional).
+    #[schema(minimum = 0, maximum = 86_400_000)]
     pub elapsed_ms: Option<i64>,
 }
 
@@ -1472,9 +1513,11 @@ pub const REASONS: &[(&str, &str, &str)] = &[
 pub struct ReasonsRequest {
     /// The question's position.
     pub position: i64,
-    /// Reason codes (see the OpenAPI description; may be empty to skip).
+    /// Reason codes (may be empty to skip).
+    #[schema(value_type = Vec<crate::api::schema::ReasonCode>, max_items = 10)]
     pub reasons: Vec<String>,
     /// Optional free text (at most 1000 characters).
+    #[schema(max_length = 1000)]
     pub text: Option<String>,
 }
 
@@ -1488,10 +1531,15 @@ pub async fn submit_reasons(db: &Db, a: &Assignment, req: &ReasonsRequest) -> Re
             return Err(AppError::BadRequest(format!("reasons: unknown code {r:?}")));
         }
     }
-    let text = req.text.as_deref().map(str::trim).filter(|t| !t.is_empty());
-    if text.is_some_and(|t| t.chars().count() > 1000) {
+    // Counted before trimming, as the schema's maxLength counts.
+    if req
+        .text
+        .as_deref()
+        .is_some_and(|t| t.chars().count() > 1000)
+    {
         return Err(AppError::BadRequest("text: at most 1000 characters".into()));
     }
+    let text = req.text.as_deref().map(str::trim).filter(|t| !t.is_empty());
     let row = sqlx::query(
         "SELECT ask_reasons, choice FROM questions WHERE assignment_id = $1 AND position = $2",
     )

@@ -5,7 +5,7 @@
 use askama::Template;
 use axum::Router;
 use axum::extract::State;
-use axum::http::header;
+use axum::http::{StatusCode, header};
 use axum::response::{Html, IntoResponse, Redirect, Response};
 use axum::routing::get;
 
@@ -51,11 +51,15 @@ pub(super) struct MessagePage<'a> {
 
 /// Renders an error as an HTML page with the error's status.
 fn error_page(e: AppError) -> Response {
-    let status = e.status();
-    if status.is_server_error() {
+    if e.status().is_server_error() {
         eprintln!("error: {e}");
     }
-    if matches!(e, AppError::Unauthorized) {
+    status_page(e.status(), e.public_message())
+}
+
+/// An error page with `status` showing `message`; the admin login page instead of a 401.
+pub(crate) fn status_page(status: StatusCode, message: String) -> Response {
+    if status == StatusCode::UNAUTHORIZED {
         return Redirect::to("/admin/login").into_response();
     }
     let page = MessagePage {
@@ -64,12 +68,12 @@ fn error_page(e: AppError) -> Response {
         } else {
             "Sorry"
         },
-        message: e.public_message(),
+        message,
         class: "error",
     };
     match page.render() {
         Ok(html) => (status, Html(html)).into_response(),
-        Err(_) => (status, e.public_message()).into_response(),
+        Err(_) => (status, page.message).into_response(),
     }
 }
 

@@ -79,8 +79,8 @@ struct AdminStudy {
     agreement: String,
     ceiling: String,
     median: String,
-    /// `(control errors, completed HITs)`, drawn as `<meter>`s up to `histogram_max`.
-    histogram: Vec<(i64, i64)>,
+    /// Completed HITs by control errors, drawn as `<meter>`s up to `histogram_max`.
+    histogram: Vec<dashboard::ErrorCount>,
     histogram_max: i64,
     per_hour: Vec<(String, i64)>,
     /// The QC form's threshold: as last submitted, else the study's.
@@ -239,7 +239,7 @@ async fn study_page(state: &AppState, admin: &Admin, id: StudyId, view: View) ->
     let histogram_max = d
         .control_error_histogram
         .iter()
-        .map(|x| x.1)
+        .map(|bin| bin.count)
         .max()
         .unwrap_or(1)
         .max(1);
@@ -278,7 +278,7 @@ async fn study_page(state: &AppState, admin: &Admin, id: StudyId, view: View) ->
         per_hour: d
             .answers_per_hour
             .iter()
-            .map(|&(h, n)| (utc_hour(h), n))
+            .map(|h| (utc_hour(h.hour), h.count))
             .collect(),
         d,
         threshold,

@@ -1,13 +1,16 @@
 //! Extractors that reject bad input with [`AppError`] (a JSON 4xx with a clear message) instead
 //! of axum's plain-text rejections.
 
-use axum::extract::rejection::{FormRejection, JsonRejection, PathRejection, QueryRejection};
+use axum::body::Bytes;
+use axum::extract::rejection::{FormRejection, PathRejection, QueryRejection};
 use axum::extract::{FromRequest, FromRequestParts, Request};
-use axum::http::StatusCode;
 use axum::http::request::Parts;
+use axum::http::{HeaderMap, StatusCode, header};
 use serde::de::DeserializeOwned;
 
 use crate::error::AppError;
+
+pub mod strict_json;
 
 fn rejected(status: StatusCode, text: String) -> AppError {
     if status == StatusCode::PAYLOAD_TOO_LARGE {
@@ -19,23 +22,44 @@ fn rejected(status: StatusCode, text: String) -> AppError {
     }
 }
 
-/// `axum::Json` with [`AppError`] rejections.
+/// A JSON object body, read as its OpenAPI schema describes it ([`strict_json`]: a struct only
+/// from an object, whole numbers as integers), with [`AppError`] rejections: 415 without a JSON
+/// content type, 413 beyond the body limit, 400 naming the field at fault.
 #[derive(Debug, Clone)]
 pub struct ApiJson<T>(pub T);
+
+/// `application/json` or any `application/…+json`, parameters (`; charset=utf-8`) allowed, as
+/// `axum::Json` accepts.
+fn json_content_type(headers: &HeaderMap) -> bool {
+    let Some(value) = headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+    else {
+        return false;
+    };
+    let essence = value.split(';').next().unwrap_or_default().trim();
+    let Some((kind, subtype)) = essence.split_once('/') else {
+        return false;
+    };
+    let subtype = subtype.to_ascii_lowercase();
+    kind.eq_ignore_ascii_case("application") && (subtype == "json" || subtype.ends_with("+json"))
+}
 
 impl<S: Send + Sync, T: DeserializeOwned> FromRequest<S> for ApiJson<T> {
     type Rejection = AppError;
 
     async fn from_request(req: Request, state: &S) -> Result<Self, AppError> {
-        match axum::Json::<T>::from_request(req, state).await {
-            Ok(axum::Json(v)) => Ok(Self(v)),
-            Err(e @ JsonRejection::JsonDataError(_))
-            | Err(e @ JsonRejection::JsonSyntaxError(_)) => Err(AppError::BadRequest(format!(
-                "invalid JSON body: {}",
-                e.body_text()
-            ))),
-            Err(e) => Err(rejected(e.status(), e.body_text())),
+        if !json_content_type(req.headers()) {
+            return Err(AppError::UnsupportedMediaType(
+                "expected a request with `Content-Type: application/json`".into(),
+            ));
         }
+        let bytes = Bytes::from_request(req, state)
+            .await
+            .map_err(|e| rejected(e.status(), e.body_text()))?;
+        strict_json::from_slice(&bytes)
+            .map(Self)
+            .map_err(|e| AppError::BadRequest(format!("invalid JSON body: {e}")))
     }
 }
 

@@ -1,0 +1,238 @@
+//! Admin reads over JSON: the session, the studies (and creating one), the dashboard, the
+//! per-worker table, the audit trail, completion codes and the export files. Every route
+//! takes the session cookie; creating a study, being a state change, also the CSRF header
+//! (see [`crate::admin`] and the `securitySchemes` of the document).
+
+use axum::Json;
+use axum::extract::State;
+use axum::http::header;
+use axum::response::IntoResponse;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use crate::AppState;
+use crate::admin::Admin;
+use crate::dashboard::{self, Dashboard, WorkerRow};
+use crate::error::{AppError, ErrorBody, Result};
+use crate::export::{self, ExportOptions};
+use crate::extract::{ApiJson, ApiPath, ApiQuery};
+use crate::flow;
+use crate::ids::{AssignmentId, LibraryId, StudyId};
+use crate::qc::{self, DecisionRecord};
+use crate::study::{self, PoolSummary, StudySettings};
+
+/// The logged-in admin and the CSRF token to send as `x-csrf-token`.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct SessionInfo {
+    /// Username.
+    pub username: String,
+    /// CSRF token.
+    pub csrf: String,
+}
+
+/// Who is logged in, and the session's CSRF token.
+#[utoipa::path(get, path = "/api/v1/admin/session", responses((status = 200, body = SessionInfo)))]
+pub(super) async fn admin_session(admin: Admin) -> Json<SessionInfo> {
+    Json(SessionInfo {
+        username: admin.username,
+        csrf: admin.csrf,
+    })
+}
+
+/// A study in the admin list.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct StudySummary {
+    /// Id.
+    pub id: StudyId,
+    /// Name.
+    pub name: String,
+    /// Library.
+    pub library: LibraryId,
+    /// Settings.
+    pub settings: StudySettings,
+}
+
+/// All studies.
+#[utoipa::path(get, path = "/api/v1/admin/studies",
+    responses((status = 200, body = Vec<StudySummary>)))]
+pub(super) async fn admin_studies(
+    _admin: Admin,
+    State(state): State<AppState>,
+) -> Result<Json<Vec<StudySummary>>> {
+    Ok(Json(
+        study::list(&state.db)
+            .await?
+            .into_iter()
+            .map(|s| StudySummary {
+                id: s.id,
+                name: s.name,
+                library: s.library,
+                settings: s.settings,
+            })
+            .collect(),
+    ))
+}
+
+/// A new study.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CreateStudy {
+    /// Name.
+    #[schema(min_length = 1, max_length = 200)]
+    pub name: String,
+    /// Library name.
+    #[schema(min_length = 1, max_length = 200)]
+    pub library: String,
+    /// Settings (missing fields take the paper's defaults).
+    #[serde(default)]
+    pub settings: StudySettings,
+}
+
+/// The created study.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct Created {
+    /// Id.
+    pub id: StudyId,
+    /// Generated tuples.
+    pub pool: PoolSummary,
+}
+
+/// Creates a study and its tuple pool.
+#[utoipa::path(post, path = "/api/v1/admin/studies", request_body = CreateStudy,
+    responses((status = 200, body = Created),
+              (status = 400, description = "No library of that name, too few items, or an invalid \
+                  field (the message names it)", body = ErrorBody)))]
+pub(super) async fn admin_create_study(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiJson(req): ApiJson<CreateStudy>,
+) -> Result<Json<Created>> {
+    let row = sqlx::query("SELECT id FROM libraries WHERE name = $1")
+        .bind(&req.library)
+        .fetch_optional(&state.db.pool)
+        .await?
+        .ok_or_else(|| AppError::BadRequest(format!("no library named {:?}", req.library)))?;
+    let library = LibraryId(sqlx::Row::try_get(&row, "id")?);
+    let (id, pool) = study::create(&state.db, &req.name, library, req.settings).await?;
+    Ok(Json(Created { id, pool }))
+}
+
+/// Dashboard numbers.
+#[utoipa::path(get, path = "/api/v1/admin/studies/{study}/dashboard", params(("study" = i64, Path)),
+    responses((status = 200, body = Dashboard)))]
+pub(super) async fn admin_dashboard(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<StudyId>,
+) -> Result<Json<Dashboard>> {
+    let s = study::load(&state.db, id).await?;
+    Ok(Json(dashboard::compute(&state.db, &s).await?.0))
+}
+
+/// Per-worker table.
+#[utoipa::path(get, path = "/api/v1/admin/studies/{study}/workers", params(("study" = i64, Path)),
+    responses((status = 200, body = Vec<WorkerRow>)))]
+pub(super) async fn admin_workers(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<StudyId>,
+) -> Result<Json<Vec<WorkerRow>>> {
+    let s = study::load(&state.db, id).await?;
+    Ok(Json(dashboard::compute(&state.db, &s).await?.1))
+}
+
+/// Audit trail of decisions.
+#[utoipa::path(get, path = "/api/v1/admin/studies/{study}/audit", params(("study" = i64, Path)),
+    responses((status = 200, body = Vec<DecisionRecord>)))]
+pub(super) async fn admin_audit(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<StudyId>,
+) -> Result<Json<Vec<DecisionRecord>>> {
+    study::load(&state.db, id).await?;
+    Ok(Json(qc::audit(&state.db, id).await?))
+}
+
+/// Which assignment a completion code belongs to.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct CodeCheck {
+    /// Whether the code is a valid completion code of this study.
+    pub valid: bool,
+    /// The assignment it belongs to.
+    pub assignment: Option<AssignmentId>,
+}
+
+/// Longest completion code the check looks at (codes are far shorter).
+const MAX_CODE: usize = 64;
+
+/// Checks a completion code a worker submitted.
+#[utoipa::path(get, path = "/api/v1/admin/studies/{study}/codes/{code}",
+    params(("study" = i64, Path), ("code" = String, Path, max_length = 64)),
+    responses((status = 200, body = CodeCheck),
+              (status = 400, description = "The code is longer than 64 characters", body = ErrorBody)))]
+pub(super) async fn admin_verify_code(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath((id, code)): ApiPath<(StudyId, String)>,
+) -> Result<Json<CodeCheck>> {
+    if code.chars().count() > MAX_CODE {
+        return Err(AppError::BadRequest(format!(
+            "code: at most {MAX_CODE} characters"
+        )));
+    }
+    let s = study::load(&state.db, id).await?;
+    let assignment = flow::verify_code(&state.db, &s, &code).await?;
+    Ok(Json(CodeCheck {
+        valid: assignment.is_some(),
+        assignment,
+    }))
+}
+
+/// One export file.
+#[utoipa::path(get, path = "/api/v1/admin/studies/{study}/export/{file}",
+    params(("study" = i64, Path), ("file" = super::schema::ExportFile, Path), ExportOptions),
+    responses((status = 200, description = "The file, as an attachment", content(
+                  (String = "text/csv"), (String = "application/xml"),
+                  (Object = "application/json"))),
+              (status = 400, description = "A query parameter is not `true` or `false`, or a \
+                  payment file was asked for in a pseudonymous export", body = ErrorBody),
+              (status = 404, description = "No such study or export file", body = ErrorBody)))]
+pub(super) async fn admin_export(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath((id, file)): ApiPath<(StudyId, String)>,
+    ApiQuery(opts): ApiQuery<ExportOptions>,
+) -> Result<impl IntoResponse> {
+    export_file(&state, id, &file, opts).await
+}
+
+/// Serves one export file (shared by the API and the admin pages).
+pub async fn export_file(
+    state: &AppState,
+    id: StudyId,
+    file: &str,
+    opts: ExportOptions,
+) -> Result<impl IntoResponse + use<>> {
+    if !export::FILES.contains(&file) {
+        return Err(AppError::NotFound("export file"));
+    }
+    let s = study::load(&state.db, id).await?;
+    let (name, bytes) = export::file(&state.db, &s, file, opts, &state.settings.public_url).await?;
+    let mime = if name.ends_with(".csv") {
+        "text/csv; charset=utf-8"
+    } else if name.ends_with(".xml") {
+        "application/xml"
+    } else {
+        "application/json"
+    };
+    Ok((
+        [
+            (header::CONTENT_TYPE, mime.to_string()),
+            (
+                header::CONTENT_DISPOSITION,
+                format!("attachment; filename=\"study-{id}-{name}\""),
+            ),
+        ],
+        bytes,
+    ))
+}
