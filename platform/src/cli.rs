@@ -216,6 +216,18 @@ pub enum StudyCommand {
         /// Prolific screen-out code (empty: remove it).
         #[arg(long)]
         prolific_screenout_code: Option<String>,
+        /// Prolific no-consent code (empty: remove it).
+        #[arg(long)]
+        prolific_noconsent_code: Option<String>,
+        /// Markdown file with the instructions shown on the start page.
+        #[arg(long)]
+        instructions_file: Option<PathBuf>,
+        /// Markdown file with the informed-consent text (an empty file removes the consent step).
+        #[arg(long)]
+        consent_file: Option<PathBuf>,
+        /// Show the worked example under the instructions (`true` or `false`).
+        #[arg(long)]
+        show_worked_example: Option<bool>,
         /// Block this worker id (repeatable); added to the study's block list.
         #[arg(long)]
         block_worker: Vec<String>,
@@ -404,6 +416,10 @@ pub async fn run(cli: Cli) -> Result<()> {
             reject_at_control_errors,
             prolific_completion_code,
             prolific_screenout_code,
+            prolific_noconsent_code,
+            instructions_file,
+            consent_file,
+            show_worked_example,
             block_worker,
             unblock_worker,
             exclude_workers_of,
@@ -444,6 +460,20 @@ pub async fn run(cli: Cli) -> Result<()> {
             if let Some(c) = prolific_screenout_code {
                 patch.prolific_screenout_code = code(c);
             }
+            if let Some(c) = prolific_noconsent_code {
+                patch.prolific_noconsent_code = code(c);
+            }
+            let markdown = |path: &PathBuf| {
+                std::fs::read_to_string(path)
+                    .map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))
+            };
+            if let Some(path) = &instructions_file {
+                patch.instructions = Some(markdown(path)?);
+            }
+            if let Some(path) = &consent_file {
+                patch.consent = Some(markdown(path)?);
+            }
+            patch.show_worked_example = show_worked_example.or(patch.show_worked_example);
             // The list flags add to (or remove from) the list the file gives or the study has.
             if !block_worker.is_empty() || !unblock_worker.is_empty() {
                 let mut list = match patch.blocked_workers.take() {

@@ -83,11 +83,18 @@ pub(super) async fn admin_qc(
 pub(in crate::pages) struct SettingsForm {
     csrf: Option<String>,
     description: Option<String>,
+    /// Markdown.
+    instructions: Option<String>,
+    /// `yes` or `no`.
+    show_worked_example: Option<String>,
+    /// Markdown; empty: no consent step.
+    consent: Option<String>,
     max_training_attempts: Option<String>,
     reasons_probability: Option<String>,
     reject_at_control_errors: Option<String>,
     prolific_completion_code: Option<String>,
     prolific_screenout_code: Option<String>,
+    prolific_noconsent_code: Option<String>,
     /// One worker id per line.
     blocked_workers: Option<String>,
     /// Study ids separated by commas or spaces.
@@ -149,8 +156,21 @@ impl SettingsForm {
                 )));
             }
         };
+        let show_worked_example = match self.show_worked_example.as_deref() {
+            None => None,
+            Some("yes") => Some(true),
+            Some("no") => Some(false),
+            Some(other) => {
+                return Err(AppError::BadRequest(format!(
+                    "show_worked_example: {other:?} is not yes or no"
+                )));
+            }
+        };
         Ok(SettingsPatch {
             description: text(&self.description),
+            instructions: text(&self.instructions),
+            show_worked_example,
+            consent: text(&self.consent),
             max_training_attempts: form_number(
                 "max_training_attempts",
                 self.max_training_attempts.as_deref(),
@@ -165,6 +185,7 @@ impl SettingsForm {
             )?,
             prolific_completion_code: code(&self.prolific_completion_code),
             prolific_screenout_code: code(&self.prolific_screenout_code),
+            prolific_noconsent_code: code(&self.prolific_noconsent_code),
             blocked_workers: text(&self.blocked_workers).map(|v| {
                 v.lines()
                     .map(str::trim)
@@ -184,11 +205,16 @@ impl SettingsForm {
 /// The settings form's fields as the page fills them in.
 pub(in crate::pages) struct SettingsFields {
     pub(super) description: String,
+    pub(super) instructions: String,
+    /// `yes` or `no`.
+    pub(super) show_worked_example: String,
+    pub(super) consent: String,
     pub(super) max_training_attempts: String,
     pub(super) reasons_probability: String,
     pub(super) reject_at_control_errors: String,
     pub(super) prolific_completion_code: String,
     pub(super) prolific_screenout_code: String,
+    pub(super) prolific_noconsent_code: String,
     /// `blocked_workers`, one per line.
     pub(super) blocked_workers: String,
     /// `exclude_workers_of`, comma-separated.
@@ -204,11 +230,15 @@ impl SettingsFields {
     pub(super) fn stored(s: &StudySettings) -> Self {
         Self {
             description: s.description.clone(),
+            instructions: s.instructions.clone(),
+            show_worked_example: if s.show_worked_example { "yes" } else { "no" }.into(),
+            consent: s.consent.clone(),
             max_training_attempts: s.max_training_attempts.to_string(),
             reasons_probability: s.reasons_probability.to_string(),
             reject_at_control_errors: s.reject_at_control_errors.to_string(),
             prolific_completion_code: s.prolific_completion_code.clone().unwrap_or_default(),
             prolific_screenout_code: s.prolific_screenout_code.clone().unwrap_or_default(),
+            prolific_noconsent_code: s.prolific_noconsent_code.clone().unwrap_or_default(),
             blocked_workers: s.blocked_workers.join("\n"),
             exclude_workers_of: s
                 .exclude_workers_of
@@ -230,6 +260,13 @@ impl SettingsFields {
     pub(super) fn keep(&mut self, f: &SettingsForm) {
         let pairs = [
             (&mut self.description, &f.description),
+            (&mut self.instructions, &f.instructions),
+            (&mut self.show_worked_example, &f.show_worked_example),
+            (&mut self.consent, &f.consent),
+            (
+                &mut self.prolific_noconsent_code,
+                &f.prolific_noconsent_code,
+            ),
             (&mut self.max_training_attempts, &f.max_training_attempts),
             (&mut self.reasons_probability, &f.reasons_probability),
             (
