@@ -42,6 +42,8 @@ pub struct Dashboard {
     pub completed: i64,
     /// Screened out in training.
     pub screened_out: i64,
+    /// Did not give consent (no HIT).
+    pub declined: i64,
     /// Expired before finishing (slots released).
     pub abandoned: i64,
     /// Completed and approved.
@@ -221,6 +223,7 @@ pub async fn compute(db: &Db, study: &Study) -> Result<(Dashboard, Vec<WorkerRow
             "active" => d.active += 1,
             "completed" => d.completed += 1,
             "screened_out" => d.screened_out += 1,
+            "declined" => d.declined += 1,
             "abandoned" => d.abandoned += 1,
             _ => {}
         }

@@ -106,9 +106,58 @@ async fn consent_is_asked_and_recorded(db: TestDb) {
                 "p-yes".into(),
                 "training".into(),
                 Some("agreed".into()),
-                Some(version)
+                Some(version.clone())
             ),
         ]
+    );
+
+    // The dashboard counts the declined worker; assignments.csv says who agreed to which text,
+    // when (the ids of the export are the platform's: p-no, p-yes).
+    let (cookie, _) = admin_login(&http, &server.base).await;
+    let dashboard: Value = http
+        .get(server.url(&format!("/api/v1/admin/studies/{study}/dashboard")))
+        .header("cookie", &cookie)
+        .send()
+        .await
+        .expect("dashboard")
+        .json()
+        .await
+        .expect("json");
+    assert_eq!(dashboard["declined"], 1, "{dashboard}");
+    assert_eq!(dashboard["started"], 2, "{dashboard}");
+    let csv = http
+        .get(server.url(&format!(
+            "/api/v1/admin/studies/{study}/export/assignments.csv?include_incomplete=true"
+        )))
+        .header("cookie", &cookie)
+        .send()
+        .await
+        .expect("export")
+        .text()
+        .await
+        .expect("csv");
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
+    let mut consent: Vec<(String, String, String, bool)> = lines
+        .map(|l| {
+            let cells: Vec<&str> = l.split(',').collect();
+            (
+                cells[col("worker_id")].to_string(),
+                cells[col("consent")].to_string(),
+                cells[col("consent_version")].to_string(),
+                cells[col("consent_at_utc")].ends_with('Z'),
+            )
+        })
+        .collect();
+    consent.sort();
+    assert_eq!(
+        consent,
+        vec![
+            ("p-no".into(), "declined".into(), version.clone(), true),
+            ("p-yes".into(), "agreed".into(), version.clone(), true),
+        ],
+        "{csv}"
     );
 
     // The HTML start page shows the consent form with a required box, and the decline button.

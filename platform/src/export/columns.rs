@@ -74,7 +74,7 @@ pub(super) const WORKERS: Table = Table {
         text("source", "mturk, prolific or direct"),
         text(
             "status",
-            "training, active, completed, screened_out or abandoned (expired or blocked)",
+            "training, active, completed, screened_out, declined (no consent) or abandoned (expired or blocked)",
         ),
         text("decision", "approved, rejected or empty"),
         number(
@@ -103,7 +103,7 @@ pub(super) const ASSIGNMENTS: Table = Table {
         number("sandbox", "1 for the MTurk sandbox"),
         text(
             "status",
-            "training, active, completed, screened_out or abandoned (expired or blocked)",
+            "training, active, completed, screened_out, declined (no consent) or abandoned (expired or blocked)",
         ),
         text("decision", "approved, rejected or empty"),
         number(
@@ -119,6 +119,16 @@ pub(super) const ASSIGNMENTS: Table = Table {
         text("started_at_utc", "started_at in ISO 8601 UTC"),
         number("completed_at", "Unix ms, empty while the HIT is open"),
         text("completed_at_utc", "completed_at in ISO 8601 UTC"),
+        text(
+            "consent",
+            "agreed, declined, or empty when the study asked for no consent",
+        ),
+        text(
+            "consent_version",
+            "first 12 hex digits of the SHA-256 of the consent text answered",
+        ),
+        number("consent_at", "Unix ms of the consent answer"),
+        text("consent_at_utc", "consent_at in ISO 8601 UTC"),
     ],
 };
 

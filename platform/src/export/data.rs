@@ -31,6 +31,11 @@ pub(super) struct Hit {
     pub(super) completed_at: Option<i64>,
     pub(super) external_assignment: Option<String>,
     pub(super) hit_id: Option<String>,
+    /// `agreed`, `declined`, or `None` when the study asked for no consent.
+    pub(super) consent: Option<String>,
+    /// 12 hex digits of the SHA-256 of the consent text answered.
+    pub(super) consent_version: Option<String>,
+    pub(super) consent_at: Option<i64>,
 }
 
 /// Question counts of one HIT.
@@ -47,7 +52,7 @@ pub(super) async fn hits(db: &Db, study: &Study, opts: ExportOptions) -> Result<
     let rows = sqlx::query(
         "SELECT a.id, a.worker_id, w.external_id, a.source, a.sandbox, a.status, a.decision, \
            a.training_attempts, a.demographics, a.started_at, a.completed_at, \
-           a.external_assignment, a.hit_id \
+           a.external_assignment, a.hit_id, a.consent, a.consent_version, a.consent_at \
          FROM assignments a JOIN workers w ON w.id = a.worker_id WHERE a.study_id = $1 \
          ORDER BY a.started_at, a.id",
     )
@@ -78,6 +83,9 @@ pub(super) async fn hits(db: &Db, study: &Study, opts: ExportOptions) -> Result<
                 completed_at: r.try_get("completed_at")?,
                 external_assignment: r.try_get("external_assignment")?,
                 hit_id: r.try_get("hit_id")?,
+                consent: r.try_get("consent")?,
+                consent_version: r.try_get("consent_version")?,
+                consent_at: r.try_get("consent_at")?,
             })
         })
         .collect()

@@ -177,6 +177,7 @@ pub async fn build(
         ]);
         let [started, started_utc] = time_cells(Some(h.started_at));
         let [completed, completed_utc] = time_cells(h.completed_at);
+        let [consent_at, consent_at_utc] = time_cells(h.consent_at);
         assignments.push(vec![
             h.id.to_string(),
             h.worker.clone(),
@@ -191,6 +192,10 @@ pub async fn build(
             started_utc,
             completed,
             completed_utc,
+            h.consent.clone().unwrap_or_default(),
+            h.consent_version.clone().unwrap_or_default(),
+            consent_at,
+            consent_at_utc,
         ]);
     }
 
