@@ -461,23 +461,12 @@ pub async fn create(
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(settings.seed);
     let main = random_triplets(&ids, settings.tuples as usize, &mut rng);
     let control_count = (settings.controls_per_hit as usize * 20).max(50);
-    let mut labelled = style_triplets(
-        &items,
-        &features,
-        control_count + settings.training_questions as usize,
-        &mut rng,
-    );
+    let practice_count = practice_pool_size(&settings);
+    let mut labelled = style_triplets(&items, &features, control_count + practice_count, &mut rng);
     labelled.shuffle(&mut rng);
-    let training: Vec<NewTuple> = labelled
-        .iter()
-        .take(settings.training_questions as usize)
-        .copied()
-        .collect();
-    let controls: Vec<NewTuple> = labelled
-        .iter()
-        .skip(settings.training_questions as usize)
-        .copied()
-        .collect();
+    // Practice first: a small library that cannot fill both pools still gets its practice.
+    let training: Vec<NewTuple> = labelled.iter().take(practice_count).copied().collect();
+    let controls: Vec<NewTuple> = labelled.iter().skip(practice_count).copied().collect();
 
     let id = StudyId::generate();
     let mut tx = db.begin_write().await?;
@@ -587,6 +576,19 @@ fn outside(block: &std::ops::Range<i64>) -> TupleId {
     }
 }
 
+/// The practice pool a study draws: `training_questions` triplets per attempt for
+/// max(`max_training_attempts`, 5) attempts, so that a retry shows other triplets (attempts may
+/// be raised later, hence at least 5), and one more, the worked example, which no attempt's
+/// block reaches (`flow::training`).
+pub fn practice_pool_size(s: &StudySettings) -> usize {
+    let n = s.training_questions as usize;
+    if n == 0 {
+        0
+    } else {
+        n * s.max_training_attempts.max(5) as usize + 1
+    }
+}
+
 /// Adds a curated control (or training) triplet given by item names; `b` is the expected answer.
 pub async fn add_curated(db: &Db, study: &Study, kind: &str, names: [&str; 3]) -> Result<TupleId> {
     if kind != "control" && kind != "training" {
@@ -672,6 +674,18 @@ mod tests {
             assert_ne!(style[&x.a], style[&x.c]);
             assert_ne!(x.a, x.b);
         }
+    }
+
+    #[test]
+    fn the_practice_pool_holds_five_attempts_or_more_and_the_worked_example() {
+        let with = |n: u32, attempts: u32| StudySettings {
+            training_questions: n,
+            max_training_attempts: attempts,
+            ..StudySettings::default()
+        };
+        assert_eq!(practice_pool_size(&with(3, 1)), 16);
+        assert_eq!(practice_pool_size(&with(3, 8)), 25);
+        assert_eq!(practice_pool_size(&with(0, 8)), 0);
     }
 
     #[test]

@@ -10,10 +10,12 @@ use crate::db::{Db, redact};
 use crate::error::{AppError, Result};
 use crate::export::ExportOptions;
 use crate::ids::StudyId;
-use crate::study::{MturkMode, StudySettings};
-use crate::study_edit::{self, SettingsPatch};
+use crate::study;
 use crate::train::{self, TrainOptions};
-use crate::{AppState, admin, bench, dashboard, demo, export, library, study};
+use crate::{AppState, admin, bench, demo, export, library};
+
+mod study_command;
+pub use study_command::StudyCommand;
 
 /// Rating-study platform for clip-art style similarity.
 #[derive(Debug, Parser)]
@@ -36,7 +38,7 @@ pub enum Command {
     Library(LibraryCommand),
     /// Manage studies.
     #[command(subcommand)]
-    Study(StudyCommand),
+    Study(Box<StudyCommand>),
     /// Write a study's export files into a folder.
     Export(ExportArgs),
     /// Fit the style metric on a study's answers and store it (with the learner's report)
@@ -151,112 +153,6 @@ pub enum LibraryCommand {
     },
 }
 
-/// `platform study ...`.
-#[derive(Debug, Subcommand)]
-pub enum StudyCommand {
-    /// Create a study and its tuple pool.
-    Create {
-        /// Database.
-        #[command(flatten)]
-        db: DbArgs,
-        /// Study name.
-        #[arg(long)]
-        name: String,
-        /// Library name.
-        #[arg(long, default_value = "default")]
-        library: String,
-        /// JSON file with settings (missing fields: the paper's defaults); flags override it.
-        #[arg(long)]
-        settings: Option<PathBuf>,
-        /// Questions per HIT.
-        #[arg(long)]
-        questions_per_hit: Option<u32>,
-        /// Hidden controls per HIT.
-        #[arg(long)]
-        controls_per_hit: Option<u32>,
-        /// Main tuples.
-        #[arg(long)]
-        tuples: Option<u32>,
-        /// Replication R.
-        #[arg(long)]
-        replication: Option<u32>,
-        /// MTurk `sandbox` or `live`.
-        #[arg(long, value_parser = ["sandbox", "live"])]
-        mturk_mode: Option<String>,
-    },
-    /// Change a study's settings (each change is audited). Fields that only steer what happens
-    /// next change at any time; the HIT shape and the MTurk site only while the study has no
-    /// assignment; the tuple pool's fields (tuples, replication, seed, training questions)
-    /// never.
-    Edit {
-        /// Database.
-        #[command(flatten)]
-        db: DbArgs,
-        /// Study id.
-        id: StudyId,
-        /// JSON file with the fields to change (a partial settings object, as the API's
-        /// PATCH takes); flags override it.
-        #[arg(long, visible_alias = "settings-json")]
-        settings: Option<PathBuf>,
-        /// Text shown to workers before they start.
-        #[arg(long)]
-        description: Option<String>,
-        /// Training attempts before a worker is screened out.
-        #[arg(long)]
-        max_training_attempts: Option<u32>,
-        /// Probability of the "why?" questionnaire (HITs allocated from now on).
-        #[arg(long)]
-        reasons_probability: Option<f64>,
-        /// Control errors that reject a HIT (HITs completed from now on).
-        #[arg(long)]
-        reject_at_control_errors: Option<u32>,
-        /// Prolific completion code (empty: remove it).
-        #[arg(long)]
-        prolific_completion_code: Option<String>,
-        /// Prolific screen-out code (empty: remove it).
-        #[arg(long)]
-        prolific_screenout_code: Option<String>,
-        /// Prolific no-consent code (empty: remove it).
-        #[arg(long)]
-        prolific_noconsent_code: Option<String>,
-        /// Markdown file with the instructions shown on the start page.
-        #[arg(long)]
-        instructions_file: Option<PathBuf>,
-        /// Markdown file with the informed-consent text (an empty file removes the consent step).
-        #[arg(long)]
-        consent_file: Option<PathBuf>,
-        /// Show the worked example under the instructions (`true` or `false`).
-        #[arg(long)]
-        show_worked_example: Option<bool>,
-        /// Block this worker id (repeatable); added to the study's block list.
-        #[arg(long)]
-        block_worker: Vec<String>,
-        /// Remove this worker id from the block list (repeatable).
-        #[arg(long)]
-        unblock_worker: Vec<String>,
-        /// Exclude the workers of this study (repeatable); added to the list.
-        #[arg(long)]
-        exclude_workers_of: Vec<StudyId>,
-        /// Questions per HIT (only while the study has no assignment).
-        #[arg(long)]
-        questions_per_hit: Option<u32>,
-        /// Hidden controls per HIT (only while the study has no assignment).
-        #[arg(long)]
-        controls_per_hit: Option<u32>,
-        /// MTurk `sandbox` or `live` (only while the study has no assignment).
-        #[arg(long, value_parser = ["sandbox", "live"])]
-        mturk_mode: Option<String>,
-    },
-    /// Print a study's dashboard as JSON.
-    Status {
-        /// Database.
-        #[command(flatten)]
-        db: DbArgs,
-        /// Study id.
-        id: StudyId,
-    },
-}
-
 /// `platform export`.
 #[derive(Debug, Args)]
 pub struct ExportArgs {
@@ -353,172 +249,21 @@ pub async fn run(cli: Cli) -> Result<()> {
             for (location, why) in &report.skipped {
                 eprintln!("skipped {location}: {why}");
             }
-            Ok(())
-        }
-        Command::Study(StudyCommand::Create {
-            db,
-            name,
-            library: lib,
-            settings,
-            questions_per_hit,
-            controls_per_hit,
-            tuples,
-            replication,
-            mturk_mode,
-        }) => {
-            let db = db.connect().await?;
-            let mut s: StudySettings = match settings {
-                Some(path) => {
-                    let text = std::fs::read_to_string(&path)
-                        .map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))?;
-                    serde_json::from_str(&text)
-                        .map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))?
-                }
-                None => StudySettings::default(),
-            };
-            if let Some(v) = questions_per_hit {
-                s.questions_per_hit = v;
-            }
-            if let Some(v) = controls_per_hit {
-                s.controls_per_hit = v;
-            }
-            if let Some(v) = tuples {
-                s.tuples = v;
-            }
-            if let Some(v) = replication {
-                s.replication = v;
-            }
-            if let Some(m) = mturk_mode {
-                s.mturk_mode = if m == "live" {
-                    MturkMode::Live
-                } else {
-                    MturkMode::Sandbox
-                };
-            }
-            let library = library::ensure_existing(&db, &lib).await?;
-            let (id, pool) = study::create(&db, &name, library, s).await?;
-            outln!(
-                "study {id}: {} main tuples, {} slots, {} controls, {} training",
-                pool.main,
-                pool.slots,
-                pool.controls,
-                pool.training
-            )?;
-            Ok(())
-        }
-        Command::Study(StudyCommand::Edit {
-            db,
-            id,
-            settings,
-            description,
-            max_training_attempts,
-            reasons_probability,
-            reject_at_control_errors,
-            prolific_completion_code,
-            prolific_screenout_code,
-            prolific_noconsent_code,
-            instructions_file,
-            consent_file,
-            show_worked_example,
-            block_worker,
-            unblock_worker,
-            exclude_workers_of,
-            questions_per_hit,
-            controls_per_hit,
-            mturk_mode,
-        }) => {
-            let db = db.connect().await?;
-            let mut patch: SettingsPatch = match settings {
-                Some(path) => {
-                    let text = std::fs::read_to_string(&path)
-                        .map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))?;
-                    serde_json::from_str(&text)
-                        .map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))?
-                }
-                None => SettingsPatch::default(),
-            };
-            // Flags win over the file.
-            patch.description = description.or(patch.description);
-            patch.max_training_attempts = max_training_attempts.or(patch.max_training_attempts);
-            patch.reasons_probability = reasons_probability.or(patch.reasons_probability);
-            patch.reject_at_control_errors =
-                reject_at_control_errors.or(patch.reject_at_control_errors);
-            patch.questions_per_hit = questions_per_hit.or(patch.questions_per_hit);
-            patch.controls_per_hit = controls_per_hit.or(patch.controls_per_hit);
-            if let Some(m) = mturk_mode {
-                patch.mturk_mode = Some(if m == "live" {
-                    MturkMode::Live
-                } else {
-                    MturkMode::Sandbox
-                });
-            }
-            // An empty code removes it (a flag cannot say `null`).
-            let code = |c: String| Some(Some(c).filter(|c| !c.is_empty()));
-            if let Some(c) = prolific_completion_code {
-                patch.prolific_completion_code = code(c);
-            }
-            if let Some(c) = prolific_screenout_code {
-                patch.prolific_screenout_code = code(c);
-            }
-            if let Some(c) = prolific_noconsent_code {
-                patch.prolific_noconsent_code = code(c);
-            }
-            let markdown = |path: &PathBuf| {
-                std::fs::read_to_string(path)
-                    .map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))
-            };
-            if let Some(path) = &instructions_file {
-                patch.instructions = Some(markdown(path)?);
-            }
-            if let Some(path) = &consent_file {
-                patch.consent = Some(markdown(path)?);
-            }
-            patch.show_worked_example = show_worked_example.or(patch.show_worked_example);
-            // The list flags add to (or remove from) the list the file gives or the study has.
-            if !block_worker.is_empty() || !unblock_worker.is_empty() {
-                let mut list = match patch.blocked_workers.take() {
-                    Some(list) => list,
-                    None => study::load(&db, id).await?.settings.blocked_workers,
-                };
-                for w in block_worker {
-                    if !list.contains(&w) {
-                        list.push(w);
-                    }
-                }
-                list.retain(|w| !unblock_worker.contains(w));
-                patch.blocked_workers = Some(list);
-            }
-            if !exclude_workers_of.is_empty() {
-                let mut list = match patch.exclude_workers_of.take() {
-                    Some(list) => list,
-                    None => study::load(&db, id).await?.settings.exclude_workers_of,
-                };
-                for s in exclude_workers_of {
-                    if !list.contains(&s) {
-                        list.push(s);
-                    }
-                }
-                patch.exclude_workers_of = Some(list);
-            }
-            let edited = study_edit::edit(&db, id, &patch, "cli").await?;
-            if edited.changes.is_empty() {
-                outln!("study {id}: no change")?;
-            }
-            for c in &edited.changes {
-                outln!("study {id}: {}: {} -> {}", c.field, c.old, c.new)?;
+            // An import that stored nothing (no usable item, nothing already there) is a
+            // failure a script must see.
+            if report.imported == 0 && report.existing == 0 {
+                return Err(AppError::BadRequest(format!(
+                    "nothing imported from {}: no usable item found",
+                    paths
+                        .iter()
+                        .map(|p| p.display().to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )));
             }
             Ok(())
         }
-        Command::Study(StudyCommand::Status { db, id }) => {
-            let db = db.connect().await?;
-            let s = study::load(&db, id).await?;
-            let (d, _) = dashboard::compute(&db, &s).await?;
-            outln!(
-                "{}",
-                serde_json::to_string_pretty(&d).map_err(AppError::internal)?
-            )?;
-            Ok(())
-        }
+        Command::Study(command) => study_command::run(*command).await,
         Command::Export(args) => {
             let db = args.db.connect().await?;
             let s = study::load(&db, args.id).await?;
