@@ -128,6 +128,9 @@ pub struct DemoArgs {
     /// the style metric on their answers.
     #[arg(long, default_value_t = 0)]
     pub simulate: u32,
+    /// Seed of the simulated workers (default: the clock, so that every run adds new workers).
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Set everything up, print the links, and exit without serving.
     #[arg(long)]
     pub no_serve: bool,
@@ -286,19 +289,7 @@ pub async fn run(cli: Cli) -> Result<()> {
             };
             eprintln!("training the style metric of study {} …", s.id);
             let m = train::run(&db, &s, opts).await?;
-            let pct =
-                |v: Option<f64>| v.map_or_else(|| "–".into(), |v| format!("{:.1}%", 100.0 * v));
-            outln!(
-                "model {}: {} answers, λ = {:.4}, {} of 169 weights non-zero; agreement with the \
-                 answers {} (uniform weights {}), held-out {}",
-                m.id,
-                m.triplets.unwrap_or(0),
-                m.lambda.unwrap_or(f64::NAN),
-                m.nonzero.unwrap_or(0),
-                pct(m.train_accuracy),
-                pct(m.uniform_accuracy),
-                pct(m.cv_accuracy),
-            )?;
+            outln!("{}", m.describe())?;
             if let Some(note) = &m.message {
                 outln!("note: {note}")?;
             }

@@ -48,11 +48,20 @@ pub(super) struct ModelRow {
     pub(super) train_accuracy: String,
     pub(super) uniform_accuracy: String,
     pub(super) cv_accuracy: String,
+    pub(super) held_out_uniform: String,
 }
 
 impl From<ModelSummary> for ModelRow {
     fn from(m: ModelSummary) -> Self {
         let pct = |v: Option<f64>| v.map_or_else(String::new, |v| format!("{:.1}%", 100.0 * v));
+        let interval = |i: &train::Interval| {
+            format!(
+                "{:.1}% [{:.1}–{:.1}]",
+                100.0 * i.value,
+                100.0 * i.low,
+                100.0 * i.high
+            )
+        };
         Self {
             id: m.id,
             status: m.status,
@@ -63,7 +72,15 @@ impl From<ModelSummary> for ModelRow {
             nonzero: m.nonzero.map_or_else(String::new, |v| v.to_string()),
             train_accuracy: pct(m.train_accuracy),
             uniform_accuracy: pct(m.uniform_accuracy),
-            cv_accuracy: pct(m.cv_accuracy),
+            // Held out with intervals when recorded (cross-validated λ), else the CV mean.
+            cv_accuracy: m
+                .held_out
+                .as_ref()
+                .map_or_else(|| pct(m.cv_accuracy), |h| interval(&h.learned)),
+            held_out_uniform: m
+                .held_out
+                .as_ref()
+                .map_or_else(String::new, |h| interval(&h.uniform)),
         }
     }
 }
