@@ -95,8 +95,10 @@ impl AppState {
     }
 }
 
-/// Largest multipart upload (several files of at most [`library::MAX_UPLOAD_BYTES`]).
-pub const MAX_UPLOAD_REQUEST: usize = 10 * library::MAX_UPLOAD_BYTES;
+/// Largest multipart upload: [`library::MAX_UPLOAD_FILES`] files of at most
+/// [`library::MAX_UPLOAD_BYTES`], plus room for the form's other fields and part headers.
+pub const MAX_UPLOAD_REQUEST: usize =
+    library::MAX_UPLOAD_FILES * library::MAX_UPLOAD_BYTES + 256 * 1024;
 
 /// The whole application: JSON API, worker pages, admin pages.
 pub fn app(state: AppState) -> Router {

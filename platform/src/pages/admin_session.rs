@@ -122,6 +122,7 @@ struct AdminIndex {
     csrf: String,
     studies: Vec<StudyRow>,
     libraries: Vec<String>,
+    upload_limit: String,
 }
 
 async fn admin_index(
@@ -157,6 +158,7 @@ async fn admin_index(
                 csrf: admin.csrf,
                 studies,
                 libraries,
+                upload_limit: crate::library::upload_limit_in_words(),
             })
         }
         .await,
