@@ -142,7 +142,11 @@ pub(crate) async fn prepare(db: &Db, workers: usize, seconds: u64) -> Result<Stu
     let have = library::list_items(db, lib).await?.len();
     if have < BENCH_ITEMS {
         for i in have..BENCH_ITEMS {
-            library::insert_item(db, lib, swatch(i)).await?;
+            if let library::Inserted::Unusable(why) =
+                library::insert_item(db, lib, swatch(i)).await?
+            {
+                return Err(AppError::Internal(format!("bench swatch {i}: {why}")));
+            }
         }
     }
     // Two HITs for every worker plus headroom for ~18,000 answers/s (the SQLite closed loop

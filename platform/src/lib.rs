@@ -95,8 +95,10 @@ impl AppState {
     }
 }
 
-/// Largest multipart upload (several files of at most [`library::MAX_UPLOAD_BYTES`]).
-pub const MAX_UPLOAD_REQUEST: usize = 10 * library::MAX_UPLOAD_BYTES;
+/// Largest multipart upload: [`library::MAX_UPLOAD_FILES`] files of at most
+/// [`library::MAX_UPLOAD_BYTES`], plus room for the form's other fields and part headers.
+pub const MAX_UPLOAD_REQUEST: usize =
+    library::MAX_UPLOAD_FILES * library::MAX_UPLOAD_BYTES + 256 * 1024;
 
 /// The whole application: JSON API, worker pages, admin pages.
 pub fn app(state: AppState) -> Router {
@@ -155,8 +157,17 @@ async fn html_errors(req: axum::extract::Request, next: axum::middleware::Next) 
     }
 }
 
-/// Serves `app` on `listener` until Ctrl-C / SIGTERM.
+/// Serves `app` on `listener` until Ctrl-C / SIGTERM. Meanwhile, and first at start, studies
+/// whose creation stopped (the process writing their pool died) are marked failed and their
+/// rows deleted ([`study::watch`]).
 pub async fn serve(listener: tokio::net::TcpListener, state: AppState) -> std::io::Result<()> {
+    let watch = study::watch(state.db.clone());
+    let served = serve_app(listener, state).await;
+    watch.abort();
+    served
+}
+
+async fn serve_app(listener: tokio::net::TcpListener, state: AppState) -> std::io::Result<()> {
     axum::serve(listener, app(state))
         .with_graceful_shutdown(async {
             let ctrl_c = tokio::signal::ctrl_c();

@@ -205,6 +205,28 @@
     }
   }
 
+  // A tuple pool still being written: its progress every second, and the whole page once it
+  // is complete (or failed).
+  const pool = document.getElementById("pool-status");
+  if (pool && pool.dataset.status === "creating") {
+    const follow = setInterval(async () => {
+      try {
+        const s = await getJson("");
+        if (s.status !== "creating") {
+          clearInterval(follow);
+          location.reload();
+          return;
+        }
+        document.getElementById("pool-done").textContent = String(s.rows_done);
+        document.getElementById("pool-percent").textContent =
+          String(s.rows_total > 0 ? Math.floor(s.rows_done * 100 / s.rows_total) : 100);
+        document.getElementById("pool-progress").value = s.rows_done;
+      } catch (e) {
+        status.textContent = "Following the pool failed (" + e.message + "); retrying.";
+      }
+    }, 1000);
+  }
+
   // `?refresh=S` sets the period in seconds (1–600).
   const asked = Number(new URLSearchParams(location.search).get("refresh"));
   const period = (asked >= 1 && asked <= 600) ? asked : 10;

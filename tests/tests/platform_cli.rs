@@ -42,3 +42,61 @@ fn validation_errors_are_one_line_even_with_rust_backtrace() {
         }
     }
 }
+
+/// A blank drawing between two good ones (issue 16: it aborted the whole import, with an error
+/// that did not name the file): it is skipped and listed with its file and the reason, the
+/// items after it are stored, label rows naming no file are warned about, and an import that
+/// stores nothing fails.
+#[test]
+fn a_blank_drawing_is_skipped_and_named_and_the_import_goes_on() {
+    let db = sqlite_db();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let drawing = |fill: &str| {
+        format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><circle cx="5" cy="5" r="4" fill="{fill}"/></svg>"#
+        )
+    };
+    std::fs::write(dir.path().join("a.svg"), drawing("teal")).expect("write");
+    std::fs::write(dir.path().join("b-blank.svg"), drawing("white")).expect("write");
+    std::fs::write(dir.path().join("c.svg"), drawing("crimson")).expect("write");
+    let labels = dir.path().join("labels.csv");
+    std::fs::write(
+        &labels,
+        "file,style\na.svg,flat\n,flat\nmissing.svg,ink\nc.svg,ink\n",
+    )
+    .expect("write labels");
+    let (dir_arg, labels_arg) = (dir.path().to_string_lossy(), labels.to_string_lossy());
+    let import = |path: &str, labels: Option<&str>| {
+        let mut args = vec!["library", "import", "--database-url", db.url.as_str()];
+        if let Some(l) = labels {
+            args.extend(["--labels", l]);
+        }
+        args.push(path);
+        platform_cmd(&args, &[])
+    };
+    let out = import(&dir_arg, Some(&labels_arg));
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("imported 2 item(s)") && stdout.contains("1 skipped"),
+        "{stdout}"
+    );
+    let blank = dir.path().join("b-blank.svg");
+    assert!(
+        stderr.contains(&format!("skipped {}: blank drawing", blank.display())),
+        "{stderr}"
+    );
+    assert!(stderr.contains("line 3: the row names no file"), "{stderr}");
+    assert!(
+        stderr.contains("line 4") && stderr.contains("\"missing.svg\""),
+        "{stderr}"
+    );
+    // Nothing usable: a failure a script sees.
+    let out = import(&blank.to_string_lossy(), None);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("nothing imported"), "{stderr}");
+}

@@ -288,8 +288,8 @@ async fn uploads_are_validated_with_clear_messages() {
     let f = fixture(json!({})).await;
     let (c, base) = (&f.c, &f.server.base);
     let (cookie, csrf) = admin_login(c, base).await;
-    // A hand-built multipart/form-data body (csrf, library, one file).
-    let upload = |name: &str, bytes: Vec<u8>, csrf: &str| {
+    // A hand-built multipart/form-data body (csrf, library, files).
+    let upload_files = |files: &[(&str, Vec<u8>)], csrf: &str| {
         let boundary = "----e2e-boundary-7d1f";
         let mut body = Vec::new();
         for (field, value) in [("csrf", csrf), ("library", "uploads")] {
@@ -298,14 +298,17 @@ async fn uploads_are_validated_with_clear_messages() {
                     .as_bytes(),
             );
         }
-        body.extend_from_slice(
-            format!(
-                "--{boundary}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"{name}\"\r\nContent-Type: application/octet-stream\r\n\r\n"
-            )
-            .as_bytes(),
-        );
-        body.extend_from_slice(&bytes);
-        body.extend_from_slice(format!("\r\n--{boundary}--\r\n").as_bytes());
+        for (name, bytes) in files {
+            body.extend_from_slice(
+                format!(
+                    "--{boundary}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"{name}\"\r\nContent-Type: application/octet-stream\r\n\r\n"
+                )
+                .as_bytes(),
+            );
+            body.extend_from_slice(bytes);
+            body.extend_from_slice(b"\r\n");
+        }
+        body.extend_from_slice(format!("--{boundary}--\r\n").as_bytes());
         c.post(format!("{base}/admin/library/upload"))
             .header("cookie", &cookie)
             .header(
@@ -314,6 +317,7 @@ async fn uploads_are_validated_with_clear_messages() {
             )
             .body(body)
     };
+    let upload = |name: &str, bytes: Vec<u8>, csrf: &str| upload_files(&[(name, bytes)], csrf);
     let good = br#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><circle cx="5" cy="5" r="4" fill="teal"/></svg>"#.to_vec();
     let resp = upload("ok.svg", good.clone(), &csrf)
         .send()
@@ -330,13 +334,61 @@ async fn uploads_are_validated_with_clear_messages() {
             400,
             "not a readable image",
         ),
-        ("big.svg", vec![b' '; 6 * 1024 * 1024], 413, "limit"),
+        (
+            "big.svg",
+            vec![b' '; 6 * 1024 * 1024],
+            413,
+            "file too large",
+        ),
     ] {
         let resp = upload(name, bytes, &csrf).send().await.expect("upload");
         assert_eq!(resp.status().as_u16(), want, "{name}");
         let text = resp.text().await.expect("body");
         assert!(text.contains(message), "{name}: {text}");
     }
+    // A blank drawing between two good files is refused with its name and the reason; the
+    // files after it are still stored (issue 16).
+    let blank = br#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><rect width="10" height="10" fill="white"/></svg>"#.to_vec();
+    let teal = String::from_utf8(good.clone()).expect("utf-8");
+    let resp = upload_files(
+        &[
+            ("one.svg", good.clone()),
+            ("blank.svg", blank.clone()),
+            ("two.svg", teal.replace("teal", "crimson").into_bytes()),
+        ],
+        &csrf,
+    )
+    .send()
+    .await
+    .expect("upload");
+    assert_eq!(resp.status().as_u16(), 200);
+    let text = resp.text().await.expect("body");
+    assert!(text.contains("Stored 2 item(s); refused 1"), "{text}");
+    assert!(text.contains("<li>two.svg</li>"), "{text}");
+    assert!(
+        text.contains("<td>blank.svg</td><td>blank drawing"),
+        "{text}"
+    );
+    // More files than the form's limit: the plain limit message.
+    let many: Vec<(String, Vec<u8>)> = (0..21)
+        .map(|i| (format!("many{i}.svg"), good.clone()))
+        .collect();
+    let many: Vec<(&str, Vec<u8>)> = many.iter().map(|(n, b)| (n.as_str(), b.clone())).collect();
+    let resp = upload_files(&many, &csrf).send().await.expect("upload");
+    assert_eq!(resp.status().as_u16(), 413);
+    let text = resp.text().await.expect("body");
+    assert!(
+        text.contains("upload too large (the limit is 5 MB per file, 20 files per upload)"),
+        "{text}"
+    );
+    // Only a blank drawing: nothing stored, a 400 that names the file.
+    let resp = upload("blank2.svg", blank, &csrf)
+        .send()
+        .await
+        .expect("upload");
+    assert_eq!(resp.status().as_u16(), 400);
+    let text = resp.text().await.expect("body");
+    assert!(text.contains("blank2.svg: blank drawing"), "{text}");
     let resp = upload("ok2.svg", good, "wrong")
         .send()
         .await

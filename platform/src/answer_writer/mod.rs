@@ -157,7 +157,7 @@ impl AnswerWriter {
         // Durability comes from the sync thread's fdatasync before any reply (see `sqlite.rs`).
         conn.pragma_update(None, "synchronous", "NORMAL")?;
         // No `cache_size`: SQLite's default page cache (2 MB) is enough, since a HIT's slot
-        // claims share a few pages (consecutive tuple ids, see `study::free_tuple_block`), and
+        // claims share a few pages (consecutive tuple ids, see `study::rows::free_block`), and
         // SQLite scans a larger cache's page table as a commit ends (`pcache1TruncateUnsafe`:
         // 6-14% of the writer's CPU with a 64 MiB cache, under 3% with this one, `perf` at 50
         // closed-loop workers).

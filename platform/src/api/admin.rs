@@ -5,7 +5,7 @@
 
 use axum::Json;
 use axum::extract::State;
-use axum::http::header;
+use axum::http::{StatusCode, header};
 use axum::response::IntoResponse;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
@@ -19,7 +19,7 @@ use crate::extract::{ApiJson, ApiPath, ApiQuery};
 use crate::flow;
 use crate::ids::{AssignmentId, LibraryId, StudyId};
 use crate::qc::{self, DecisionRecord};
-use crate::study::{self, PoolSummary, StudySettings};
+use crate::study::{self, PoolSummary, StudySettings, StudyStatus};
 
 /// The logged-in admin and the CSRF token to send as `x-csrf-token`.
 #[derive(Debug, Serialize, ToSchema)]
@@ -50,6 +50,8 @@ pub struct StudySummary {
     pub library: LibraryId,
     /// Settings.
     pub settings: StudySettings,
+    /// Whether its tuple pool is complete (`creating`: workers cannot start yet).
+    pub status: StudyStatus,
 }
 
 /// All studies.
@@ -68,6 +70,7 @@ pub(super) async fn admin_studies(
                 name: s.name,
                 library: s.library,
                 settings: s.settings,
+                status: s.status,
             })
             .collect(),
     ))
@@ -95,26 +98,114 @@ pub struct Created {
     pub id: StudyId,
     /// Generated tuples.
     pub pool: PoolSummary,
+    /// `ready` (200), or `creating` (202) while the pool is still being written.
+    pub status: StudyStatus,
+    /// Rows (tuples and slots) of the pool written.
+    pub rows_done: i64,
+    /// Rows of the whole pool.
+    pub rows_total: i64,
+    /// What the pool lacks against the settings (no hidden controls, no practice questions…),
+    /// in plain words; empty when nothing.
+    pub warnings: Vec<String>,
 }
 
-/// Creates a study and its tuple pool.
+/// Creates a study and its tuple pool. The pool is written in chunks that leave the answer
+/// path free; a request waits up to 2 s for it (200, `ready`), and a larger pool goes on in
+/// the background (202, `creating`: `GET /api/v1/admin/studies/{study}` shows its progress,
+/// and workers can start once it is `ready`).
 #[utoipa::path(post, path = "/api/v1/admin/studies", request_body = CreateStudy,
-    responses((status = 200, body = Created),
-              (status = 400, description = "No library of that name, too few items, or an invalid \
-                  field (the message names it)", body = ErrorBody)))]
+    responses((status = 200, description = "The study, its pool complete", body = Created),
+              (status = 202, description = "The study, its pool still being written",
+                  body = Created),
+              (status = 400, description = "No library of that name, too few items, more tuples \
+                  than the library has distinct triplets, more than 20,000,000 slots, or an \
+                  invalid field (the message names it)", body = ErrorBody)))]
 pub(super) async fn admin_create_study(
     _admin: Admin,
     State(state): State<AppState>,
     ApiJson(req): ApiJson<CreateStudy>,
-) -> Result<Json<Created>> {
+) -> Result<(StatusCode, Json<Created>)> {
     let row = sqlx::query("SELECT id FROM libraries WHERE name = $1")
         .bind(&req.library)
         .fetch_optional(&state.db.pool)
         .await?
         .ok_or_else(|| AppError::BadRequest(format!("no library named {:?}", req.library)))?;
     let library = LibraryId(sqlx::Row::try_get(&row, "id")?);
-    let (id, pool) = study::create(&state.db, &req.name, library, req.settings).await?;
-    Ok(Json(Created { id, pool }))
+    let started = study::start_creation(
+        &state.db,
+        &req.name,
+        library,
+        req.settings,
+        study::CREATE_WAIT,
+    )
+    .await?;
+    let s = study::load(&state.db, started.id).await?;
+    let code = if started.ready {
+        StatusCode::OK
+    } else {
+        StatusCode::ACCEPTED
+    };
+    Ok((
+        code,
+        Json(Created {
+            id: started.id,
+            pool: started.summary,
+            status: s.status,
+            rows_done: s.progress.rows_done,
+            rows_total: s.progress.rows_total,
+            warnings: started.warnings,
+        }),
+    ))
+}
+
+/// A study: settings, where its tuple pool stands, and what the pool lacks.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct StudyDetail {
+    /// Id.
+    pub id: StudyId,
+    /// Name.
+    pub name: String,
+    /// Library.
+    pub library: LibraryId,
+    /// Settings.
+    pub settings: StudySettings,
+    /// `creating` while the pool is written (workers cannot start), `ready`, or `failed`.
+    pub status: StudyStatus,
+    /// Rows (tuples and slots) of the pool written; while a failed study's rows are deleted,
+    /// the rows left.
+    pub rows_done: i64,
+    /// Rows of the whole pool (0 for studies created before progress was recorded).
+    pub rows_total: i64,
+    /// When the last part of the pool was written (Unix ms).
+    pub updated_at: Option<i64>,
+    /// Why the creation failed.
+    pub error: Option<String>,
+    /// What the pool lacks against the settings, in plain words; empty when nothing.
+    pub warnings: Vec<String>,
+}
+
+/// One study, with the progress of its tuple pool and its warnings.
+#[utoipa::path(get, path = "/api/v1/admin/studies/{study}", params(("study" = i64, Path)),
+    responses((status = 200, body = StudyDetail)))]
+pub(super) async fn admin_study(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<StudyId>,
+) -> Result<Json<StudyDetail>> {
+    let s = study::load(&state.db, id).await?;
+    let warnings = study::warnings(&state.db, &s).await?;
+    Ok(Json(StudyDetail {
+        id: s.id,
+        name: s.name,
+        library: s.library,
+        settings: s.settings,
+        status: s.status,
+        rows_done: s.progress.rows_done,
+        rows_total: s.progress.rows_total,
+        updated_at: s.progress.updated_at,
+        error: s.progress.error,
+        warnings,
+    }))
 }
 
 /// Dashboard numbers.

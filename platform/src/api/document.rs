@@ -28,6 +28,7 @@ use crate::error::ErrorBody;
         admin::admin_session,
         admin::admin_studies,
         admin::admin_create_study,
+        admin::admin_study,
         admin::admin_dashboard,
         admin::admin_workers,
         admin::admin_audit,

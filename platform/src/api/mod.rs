@@ -53,6 +53,7 @@ pub fn routes() -> Router<AppState> {
             "/api/v1/admin/studies",
             get(admin_studies).post(admin_create_study),
         )
+        .route("/api/v1/admin/studies/{study}", get(admin_study))
         .route(
             "/api/v1/admin/studies/{study}/dashboard",
             get(admin_dashboard),

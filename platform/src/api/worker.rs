@@ -31,6 +31,11 @@ pub struct StudyInfo {
     pub questions_per_hit: u32,
     /// Training questions.
     pub training_questions: u32,
+    /// Questions a HIT started now holds, controls included: `questions_per_hit`, or fewer
+    /// when the study has fewer tuples with a free slot or fewer controls left (0: none left).
+    pub hit_questions: usize,
+    /// Practice questions of a training attempt started now (0: no training).
+    pub practice_questions: usize,
     /// MTurk mode.
     pub mturk_mode: MturkMode,
 }
@@ -44,12 +49,15 @@ pub(super) async fn study_info(
     ApiPath(id): ApiPath<StudyId>,
 ) -> Result<Json<StudyInfo>> {
     let s = study::load(&state.db, id).await?;
+    let outlook = flow::outlook(&state.db, &s).await?;
     Ok(Json(StudyInfo {
         id: s.id,
         name: s.name,
         description: s.settings.description.clone(),
         questions_per_hit: s.settings.questions_per_hit,
         training_questions: s.settings.training_questions,
+        hit_questions: outlook.questions,
+        practice_questions: outlook.practice,
         mturk_mode: s.settings.mturk_mode,
     }))
 }
@@ -65,7 +73,8 @@ pub(super) async fn study_info(
                   or a HIT from the other MTurk site", body = ErrorBody),
               (status = 403, description = "The worker is blocked or excluded", body = ErrorBody),
               (status = 404, description = "No such study (or a malformed id)", body = ErrorBody),
-              (status = 409, description = "No free slot left, or the settings changed while \
+              (status = 409, description = "No free slot left, the study's tuple pool is still \
+                  being written (or its creation failed), or the settings changed while \
                   starting (retry)", body = ErrorBody)))]
 pub(super) async fn start(
     State(state): State<AppState>,

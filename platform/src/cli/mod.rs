@@ -91,7 +91,8 @@ pub struct ServerArgs {
     /// Mark the session cookie `Secure` (set this behind HTTPS).
     #[arg(long, env = "PLATFORM_SECURE_COOKIES")]
     pub secure_cookies: bool,
-    /// Largest accepted request body in bytes (uploads: 50 MB).
+    /// Largest accepted request body in bytes (item uploads have their own limit: 5 MB per file,
+    /// 20 files per upload).
     #[arg(long, env = "PLATFORM_MAX_BODY_BYTES", default_value_t = 64 * 1024)]
     pub max_body_bytes: usize,
 }
@@ -251,6 +252,9 @@ pub async fn run(cli: Cli) -> Result<()> {
             )?;
             for (location, why) in &report.skipped {
                 eprintln!("skipped {location}: {why}");
+            }
+            for warning in &report.warnings {
+                eprintln!("warning: {warning}");
             }
             // An import that stored nothing (no usable item, nothing already there) is a
             // failure a script must see.

@@ -161,7 +161,21 @@ pub async fn run(command: StudyCommand) -> Result<()> {
                 };
             }
             let library = library::ensure_existing(&db, &lib).await?;
-            let (id, pool) = study::create(&db, &name, library, s).await?;
+            let pending = study::begin(&db, &name, library, s).await?;
+            let (id, warnings) = (pending.id, pending.warnings.clone());
+            // The pool is written in chunks (a server on the same database keeps answering);
+            // a large one reports its progress every tenth.
+            let (_, total) = pending.progress();
+            let mut shown = 0;
+            let pool = pending
+                .build(&db, |done, total| {
+                    let tenth = done * 10 / total.max(1);
+                    if tenth > shown && tenth < 10 {
+                        shown = tenth;
+                        eprintln!("study {id}: tuple pool {done} of {total} rows written");
+                    }
+                })
+                .await?;
             outln!(
                 "study {id}: {} main tuples, {} slots, {} controls, {} training",
                 pool.main,
@@ -169,6 +183,12 @@ pub async fn run(command: StudyCommand) -> Result<()> {
                 pool.controls,
                 pool.training
             )?;
+            if total > study::CHUNK_ROWS as i64 {
+                eprintln!("study {id}: tuple pool complete ({total} rows); workers can start");
+            }
+            for w in warnings {
+                eprintln!("warning: study {id}: {w}");
+            }
             Ok(())
         }
         StudyCommand::Edit {

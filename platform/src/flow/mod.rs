@@ -22,11 +22,13 @@ use crate::qc;
 use crate::study::{self, MturkMode, Study};
 
 mod consent;
+mod outlook;
 mod resume;
 mod sqlite_writes;
 mod training;
 
 pub use consent::consent_version;
+pub use outlook::{HitOutlook, outlook};
 pub use resume::{Existing, existing};
 pub use training::{TrainingReview, WorkedExample, worked_example};
 
@@ -219,6 +221,9 @@ fn check_submit_to(value: &str, mode: MturkMode) -> Result<bool> {
 
 /// Starts (or resumes) a worker's assignment.
 pub async fn start(db: &Db, study: &Study, req: StartRequest) -> Result<StartOutcome> {
+    // A study whose tuple pool is still being written (or failed) has no HIT to give: its
+    // first slots would be all there is.
+    study.check_open()?;
     req.check_forms()?;
     let source = req
         .source

@@ -14,7 +14,7 @@ use crate::error::AppError;
 use crate::extract::ApiForm;
 use crate::ids::StudyId;
 use crate::library;
-use crate::study::{self, MturkMode, StudySettings};
+use crate::study::{self, MAX_SLOTS, MAX_TUPLES, MturkMode, StudySettings, StudyStatus};
 
 /// Login, logout, the studies list and study creation.
 pub(super) fn routes() -> Router<AppState> {
@@ -113,6 +113,8 @@ struct StudyRow {
     questions: u32,
     replication: u32,
     mode: &'static str,
+    /// `creating` (with its percentage), `failed`, or empty when ready.
+    state: String,
 }
 
 #[derive(Template)]
@@ -122,6 +124,10 @@ struct AdminIndex {
     csrf: String,
     studies: Vec<StudyRow>,
     libraries: Vec<String>,
+    upload_limit: String,
+    /// The creation form's bounds.
+    max_tuples: u32,
+    max_slots: u64,
 }
 
 async fn admin_index(
@@ -143,6 +149,13 @@ async fn admin_index(
                         MturkMode::Sandbox => "sandbox",
                         MturkMode::Live => "LIVE",
                     },
+                    state: match s.status {
+                        StudyStatus::Ready => String::new(),
+                        StudyStatus::Creating => {
+                            format!("creating ({}%)", s.progress.percent())
+                        }
+                        StudyStatus::Failed => "failed".into(),
+                    },
                 })
                 .collect();
             let rows = sqlx::query("SELECT name FROM libraries ORDER BY name")
@@ -157,6 +170,9 @@ async fn admin_index(
                 csrf: admin.csrf,
                 studies,
                 libraries,
+                upload_limit: crate::library::upload_limit_in_words(),
+                max_tuples: MAX_TUPLES,
+                max_slots: MAX_SLOTS,
             })
         }
         .await,
@@ -194,8 +210,11 @@ async fn admin_create(
                 mturk_mode: f.mturk_mode,
                 ..StudySettings::default()
             };
-            let (id, _) = study::create(&state.db, &f.name, library, settings).await?;
-            Ok(Redirect::to(&format!("/admin/studies/{id}")).into_response())
+            // A large pool goes on in the background; the study page shows its progress.
+            let started =
+                study::start_creation(&state.db, &f.name, library, settings, study::CREATE_WAIT)
+                    .await?;
+            Ok(Redirect::to(&format!("/admin/studies/{}", started.id)).into_response())
         }
         .await,
     )

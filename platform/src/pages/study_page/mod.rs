@@ -35,6 +35,7 @@ use super::{page, render};
 
 mod forms;
 mod listed;
+mod pool;
 mod workers;
 
 use listed::{AuditRow, BonusRow, ChangeRow};
@@ -74,6 +75,8 @@ struct AdminStudy {
     csrf: String,
     sandbox: bool,
     worker_link: String,
+    /// The pool's progress, failure and warnings.
+    pool: pool::PoolView,
     d: dashboard::Dashboard,
     rejection_rate: String,
     agreement: String,
@@ -269,6 +272,7 @@ async fn study_page(state: &AppState, admin: &Admin, id: StudyId, view: View) ->
             "{}/s/{id}?participant=PARTICIPANT_ID",
             state.settings.public_url.trim_end_matches('/')
         ),
+        pool: pool::PoolView::of(&state.db, &s).await?,
         rejection_rate: fmt_opt(d.rejection_rate),
         agreement: fmt_opt(d.agreement_with_majority),
         ceiling: fmt_opt(d.noise_ceiling),

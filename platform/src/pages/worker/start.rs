@@ -56,8 +56,11 @@ struct StartPage {
     /// The consent form, when the study asks for consent and the worker has not answered yet.
     consent_html: Option<String>,
     existing: Option<Existing>,
-    questions: u32,
-    training: u32,
+    /// Questions of a HIT started now ([`flow::outlook`]: the settings' number, or fewer when
+    /// the study has fewer free tuples or controls left); 0 when none is left.
+    questions: usize,
+    /// Practice questions of the first attempt (0: no training).
+    training: usize,
     preview: bool,
     sandbox: bool,
     hidden: Vec<(&'static str, String)>,
@@ -90,6 +93,7 @@ pub(super) async fn start_page(
     page(
         async {
             let s = study::load(&state.db, id).await?;
+            s.check_open()?;
             let mturk = q.turk_submit_to.is_some() || q.assignment_id.is_some();
             let preview = q.assignment_id.as_deref() == Some(flow::MTURK_PREVIEW);
             let sandbox = mturk && s.settings.mturk_mode == MturkMode::Sandbox;
@@ -146,6 +150,7 @@ async fn page_of(
         left_is_answer: x.question.left.id == x.expected,
         q: x.question,
     });
+    let outlook = flow::outlook(db, s).await?;
     let consent_html = if s.settings.consent.trim().is_empty() || existing.is_some() {
         None
     } else {
@@ -159,8 +164,8 @@ async fn page_of(
         example,
         consent_html,
         existing,
-        questions: s.settings.questions_per_hit,
-        training: s.settings.training_questions,
+        questions: outlook.questions,
+        training: outlook.practice,
         preview,
         sandbox,
         hidden,
