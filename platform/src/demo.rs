@@ -318,12 +318,7 @@ pub async fn simulate(db: &Db, study: &Study, n: u32, seed: u64) -> Result<SimRe
 }
 
 /// `platform demo`.
-pub async fn run(mut args: DemoArgs) -> Result<()> {
-    if std::env::var_os("PLATFORM_DATABASE_URL").is_none()
-        && args.server.db.database_url == "sqlite://platform.db"
-    {
-        args.server.db.database_url = "sqlite://platform-demo.db".into();
-    }
+pub async fn run(args: DemoArgs) -> Result<()> {
     let db = args.server.db.connect().await?;
     let (study, password) = setup(&db, args.fixtures.clone()).await?;
     if args.simulate > 0 {
@@ -349,8 +344,17 @@ pub async fn run(mut args: DemoArgs) -> Result<()> {
             Err(e) => outln!("style metric not trained: {e}")?,
         }
     }
-    let (listener, state) = args.server.bind(db).await?;
-    let base = state.settings.public_url.trim_end_matches('/').to_string();
+    // With --no-serve nothing listens: the links use the address a later `serve` would bind.
+    let serving = if args.no_serve {
+        None
+    } else {
+        Some(args.server.bind(db).await?)
+    };
+    let base = match &serving {
+        Some((_, state)) => state.settings.public_url.clone(),
+        None => args.server.public_base(args.server.bind),
+    };
+    let base = base.trim_end_matches('/').to_string();
     match password {
         Some(p) => {
             outln!("admin login: {base}/admin/login  user: admin  password (shown once): {p}")
@@ -368,9 +372,9 @@ pub async fn run(mut args: DemoArgs) -> Result<()> {
         "MTurk sandbox test: {base}/s/{}?assignmentId=A1&hitId=H1&workerId=W1&turkSubmitTo=https://workersandbox.mturk.com",
         study.id
     )?;
-    if args.no_serve {
+    let Some((listener, state)) = serving else {
         return Ok(());
-    }
+    };
     crate::serve(listener, state)
         .await
         .map_err(AppError::internal)

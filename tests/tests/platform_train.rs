@@ -273,8 +273,19 @@ async fn train_from_answers(db: TestDb) {
             .unwrap()
             .contains("default-src 'none'")
     );
+    // Issue 16: nothing may frame the report, and it leads back to its study.
+    assert!(
+        resp.headers()["content-security-policy"]
+            .to_str()
+            .unwrap()
+            .contains("frame-ancestors 'none'")
+    );
     let html = resp.text().await.expect("report body");
     assert!(html.contains("Style metric report"), "{html}");
+    assert!(
+        html.contains(&format!("<a href=\"/admin/studies/{study}#models\">")),
+        "no link back to the study: {html}"
+    );
     assert!(
         html.contains("Agreement with the study's answers"),
         "{html}"
@@ -427,6 +438,10 @@ fn demo_metric_beats_uniform_with_disjoint_intervals() {
         .find(|l| l.starts_with("trained the style metric"))
         .unwrap_or_else(|| panic!("no training line:\n{printed}"));
     assert!(line.contains("held-out: learned"), "{line}");
+    assert!(
+        !printed.contains("listening on"),
+        "--no-serve listens nowhere:\n{printed}"
+    );
     assert!(!line.contains("overlap"), "{line}");
     assert!(
         !printed.contains("note:"),

@@ -32,6 +32,9 @@ pub enum Command {
     /// Run the server.
     Serve(ServerArgs),
     /// A ready-to-use demo: SQLite file, fixture library, a study, an admin, then serve.
+    // Its own database by default, so that trying the demo never touches `platform.db`; set
+    // here so that `demo --help` shows the file it really uses.
+    #[command(mut_arg("database_url", |a| a.default_value(DEMO_DATABASE_URL)))]
     Demo(DemoArgs),
     /// Manage item libraries.
     #[command(subcommand)]
@@ -50,6 +53,9 @@ pub enum Command {
     /// Load benchmark against a real server on loopback.
     Bench(bench::BenchArgs),
 }
+
+/// The demo's database when neither `--database-url` nor `PLATFORM_DATABASE_URL` is given.
+pub const DEMO_DATABASE_URL: &str = "sqlite://platform-demo.db";
 
 /// Database settings.
 #[derive(Debug, Clone, Args)]
@@ -104,22 +110,30 @@ impl ServerArgs {
             .await
             .map_err(|e| AppError::BadRequest(format!("cannot listen on {}: {e}", self.bind)))?;
         let addr = listener.local_addr().map_err(AppError::internal)?;
-        let public = self
-            .public_url
-            .clone()
-            .unwrap_or_else(|| format!("http://{addr}"));
         outln!("listening on http://{addr}")?;
         Ok((
             listener,
-            AppState::new(db, public, self.secure_cookies, self.max_body_bytes),
+            AppState::new(
+                db,
+                self.public_base(addr),
+                self.secure_cookies,
+                self.max_body_bytes,
+            ),
         ))
+    }
+
+    /// The base address of links: `--public-url`, else `http://ADDR` of the bound address.
+    pub fn public_base(&self, addr: SocketAddr) -> String {
+        self.public_url
+            .clone()
+            .unwrap_or_else(|| format!("http://{addr}"))
     }
 }
 
 /// `platform demo`.
 #[derive(Debug, Clone, Args)]
 pub struct DemoArgs {
-    /// Server settings (the database defaults to `platform-demo.db` here).
+    /// Server settings (the database defaults to [`DEMO_DATABASE_URL`] here).
     #[command(flatten)]
     pub server: ServerArgs,
     /// Folder of the fixture clip art (with `labels.csv`).

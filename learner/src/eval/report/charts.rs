@@ -60,6 +60,24 @@ pub(super) fn ensure_plot_font() -> Result<()> {
 /// Fig. 5.3: SVG text of the weights bar chart, bars grouped by family (features whose names
 /// are not in the catalogue go last, in grey).
 pub fn weights_svg(model: &Model) -> Result<String> {
+    weights_chart(
+        model.lambda,
+        model.nonzero,
+        &model.feature_names,
+        &model.weights,
+    )
+}
+
+/// Width of the weights chart's key, right of the plot: the key never covers a bar.
+const KEY_WIDTH: u32 = 130;
+
+/// [`weights_svg`] over its parts.
+fn weights_chart(
+    lambda: f64,
+    nonzero: usize,
+    feature_names: &[String],
+    weights: &[f64],
+) -> Result<String> {
     let cat = catalogue();
     // The catalogue first; names from another version of the extractor by their prefix.
     let family_of = |name: &str| {
@@ -74,10 +92,9 @@ pub fn weights_svg(model: &Model) -> Result<String> {
                 _ => None,
             })
     };
-    let mut bars: Vec<(usize, f64, Option<Family>)> = model
-        .feature_names
+    let mut bars: Vec<(usize, f64, Option<Family>)> = feature_names
         .iter()
-        .zip(&model.weights)
+        .zip(weights)
         .map(|(n, &w)| (0, w, family_of(n)))
         .collect();
     let rank = |f: Option<Family>| FAMILIES.iter().position(|x| Some(x.0) == f).unwrap_or(4);
@@ -93,13 +110,14 @@ pub fn weights_svg(model: &Model) -> Result<String> {
     {
         let root = SVGBackend::with_string(&mut svg, (1000, 420)).into_drawing_area();
         root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
-        let mut chart = ChartBuilder::on(&root)
+        let (plot, key) = root.split_horizontally(1000 - KEY_WIDTH);
+        let mut chart = ChartBuilder::on(&plot)
             .caption(
                 format!(
                     "Learned weights (λ = {:.3}, {} of {} non-zero)",
-                    model.lambda,
-                    model.nonzero,
-                    model.weights.len()
+                    lambda,
+                    nonzero,
+                    weights.len()
                 ),
                 ("sans-serif", 20),
             )
@@ -121,6 +139,7 @@ pub fn weights_svg(model: &Model) -> Result<String> {
             .map(|(f, n, c)| (Some(*f), *n, *c))
             .collect();
         groups.push((None, "other", RGBColor(150, 150, 150)));
+        let mut shown = 0;
         for (fam, name, colour) in groups {
             let mine: Vec<_> = bars.iter().filter(|b| b.2 == fam).collect();
             if mine.is_empty() {
@@ -133,18 +152,20 @@ pub fn weights_svg(model: &Model) -> Result<String> {
                         colour.filled(),
                     )
                 }))
-                .map_err(|x| e(x.to_string()))?
-                .label(name)
-                .legend(move |(x, y)| {
-                    Rectangle::new([(x, y - 5), (x + 10, y + 5)], colour.filled())
-                });
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
+                .map_err(|x| e(x.to_string()))?;
+            // The key sits in its own column right of the plot (plotters' series labels go
+            // inside the plot, over the first bars).
+            let y = 60 + 24 * shown;
+            key.draw(&Rectangle::new([(8, y - 6), (20, y + 6)], colour.filled()))
+                .map_err(|x| e(x.to_string()))?;
+            key.draw(&Text::new(
+                name,
+                (28, y - 7),
+                ("sans-serif", 15).into_font().color(&BLACK),
+            ))
             .map_err(|x| e(x.to_string()))?;
+            shown += 1;
+        }
         root.present().map_err(|x| e(x.to_string()))?;
     }
     Ok(svg)
@@ -322,4 +343,46 @@ pub fn svg_to_png(svg: &str, path: &Path) -> Result<Vec<u8>> {
         &mut pixmap.as_mut(),
     );
     pixmap.encode_png().map_err(|x| e(x.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The numeric attribute `name="…"` of an SVG element's text.
+    fn attr(element: &str, name: &str) -> Option<f64> {
+        let at = element.find(&format!(" {name}=\""))? + name.len() + 3;
+        element[at..].split('"').next()?.parse().ok()
+    }
+
+    /// Issue 16: the key of the weights chart covered the first bars. With a weight on every
+    /// feature, every family's label must lie right of every bar.
+    #[test]
+    fn the_weights_key_covers_no_bar() {
+        let names: Vec<String> = catalogue().iter().map(|f| f.name.to_string()).collect();
+        let weights = vec![1.0; names.len()];
+        let svg = weights_chart(1.0, names.len(), &names, &weights).expect("chart");
+        let bars_right = svg
+            .split("<rect")
+            .skip(1)
+            .filter(|r| attr(r, "height").is_some_and(|h| h > 14.0))
+            .filter(|r| attr(r, "width").is_some_and(|w| w < 100.0))
+            .map(|r| attr(r, "x").unwrap_or(0.0) + attr(r, "width").unwrap_or(0.0))
+            .fold(0.0f64, f64::max);
+        assert!(bars_right > 500.0, "bars found up to x = {bars_right}");
+        for label in ["colour", "shading", "texture", "strokes"] {
+            let text = svg
+                .split("<text")
+                .find(|t| {
+                    let body = t.split('>').nth(1).unwrap_or("");
+                    body.split('<').next().unwrap_or("").trim() == label
+                })
+                .unwrap_or_else(|| panic!("no key entry {label}"));
+            let x = attr(text, "x").expect("text x");
+            assert!(
+                x > bars_right,
+                "{label} at x = {x}, bars reach {bars_right}"
+            );
+        }
+    }
 }
