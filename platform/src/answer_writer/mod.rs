@@ -8,13 +8,15 @@
 //! and every caller in it gets the error (none was acknowledged).
 //!
 //! On SQLite (`answer_writer/sqlite.rs`) an answer is handed over as the worker sent it
-//! ([`AnswerWriter::submit`]) and everything happens inside the writer's `BEGIN IMMEDIATE`
-//! transaction: the read of the answer's assignment and question, the checks of
-//! [`crate::flow::answer`], the conditional `UPDATE`, the read of the assignment's next open
-//! position and the completion of every assignment left without one. What is read is exact: every
-//! writer of the file is serialised, so nothing can change between the read and the write, and two
-//! answers of one question in the same batch are decided in arrival order (the first is stored, the
-//! second is a duplicate or a conflict). The writer drives its connection directly
+//! ([`AnswerWriter::submit`], a [`Batched`] kind the worker flow implements) and everything
+//! happens inside the writer's `BEGIN IMMEDIATE` transaction: the flow's read of the answer's
+//! assignment and question, its checks, the conditional `UPDATE`, the read of the assignment's
+//! next open position and the completion of every assignment left without one. What is read is
+//! exact: every writer of the file is serialised, so nothing can change between the read and the
+//! write, and two answers of one question in the same batch are decided in arrival order (the
+//! first is stored, the second is a duplicate or a conflict). The store knows the transaction,
+//! not the answers: the writer depends on no module above it. The writer drives its connection
+//! directly
 //! ([`crate::sqlite_direct`]) on a thread of its own, and takes the process's SQLite write turn
 //! ([`crate::db::Db::begin_write`]) for each batch, so the sqlx writers of the same process queue
 //! fairly with it instead of polling SQLite's busy handler.
@@ -29,9 +31,12 @@
 //! HIT), so there the caller reads its target before and the next position after the commit, and
 //! hands over only the conditional `UPDATE` ([`AnswerWriter::write`]).
 
+mod batched;
 mod checkpoint;
 mod postgres;
 mod sqlite;
+
+pub use batched::Batched;
 
 use std::collections::VecDeque;
 use std::path::Path;
@@ -41,7 +46,6 @@ use sqlx::AnyPool;
 use tokio::sync::{mpsc, oneshot};
 
 use crate::error::{AppError, Result};
-use crate::ids::{AssignmentId, StudyId};
 
 /// Most answers written in one transaction (bounds the time the writer is held).
 pub const MAX_BATCH: usize = 256;
@@ -63,6 +67,11 @@ pub struct AnswerWrite {
     pub elapsed_ms: Option<i64>,
 }
 
+/// Stores a question's answer if it has none (`$1` choice, `$2` time, `$3` elapsed ms, `$4`
+/// assignment, `$5` position): the one statement that writes an answer, on either backend.
+pub const STORE_ANSWER: &str = "UPDATE questions SET choice = $1, answered_at = $2, \
+     elapsed_ms = $3 WHERE assignment_id = $4 AND position = $5 AND choice IS NULL";
+
 /// What happened to one answer (PostgreSQL), once its transaction has committed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Written {
@@ -71,38 +80,6 @@ pub enum Written {
     Stored,
     /// The question already had an answer (this one or another); nothing was changed.
     AlreadyAnswered,
-}
-
-/// One answer as the worker sent it (SQLite, [`AnswerWriter::submit`]): looked up, checked and
-/// stored inside the writer's transaction.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct AnswerSubmit {
-    /// The assignment's bearer token (already checked to be 32 hex digits).
-    pub token: String,
-    /// Question position.
-    pub position: i64,
-    /// The chosen item id.
-    pub choice: i64,
-    /// Client-reported time on the question.
-    pub elapsed_ms: Option<i64>,
-}
-
-/// What a submitted answer did, once its transaction has committed.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Submitted {
-    /// The assignment.
-    pub assignment: AssignmentId,
-    /// Its study.
-    pub study: StudyId,
-    /// Its status when the answer was read (`active` or `completed`); an `active` one without
-    /// an open question left is completed in the answer's transaction.
-    pub status: String,
-    /// The same answer had been stored before (idempotent retry).
-    pub duplicate: bool,
-    /// The question asks for reasons.
-    pub ask_reasons: bool,
-    /// The next unanswered position after the commit (exact: read in the same transaction).
-    pub next: Option<i64>,
 }
 
 /// Sends a job's outcome to its caller once the transaction's fate is known (`Err`: the commit
@@ -115,7 +92,7 @@ type Job = Box<dyn FnOnce(&rusqlite::Connection) -> (bool, Deliver) + Send>;
 
 enum Pending {
     Write(AnswerWrite, oneshot::Sender<Result<Written>>),
-    Submit(AnswerSubmit, oneshot::Sender<Result<Submitted>>),
+    Batched(Box<dyn batched::Entry>),
     Job(Job),
 }
 
@@ -214,15 +191,23 @@ impl AnswerWriter {
         answer.await.map_err(|_| dropped())?
     }
 
-    /// SQLite: looks the answer's assignment and question up, checks it like
-    /// `AnswerTarget::choose` ([`crate::flow`]) and stores it if the question has no answer yet,
-    /// all inside the writer's transaction; replies once that transaction has committed. Exact
-    /// because every SQLite writer is serialised (`BEGIN IMMEDIATE`); not for PostgreSQL (see
-    /// the module comment).
-    pub async fn submit(&self, submit: AnswerSubmit) -> Result<Submitted> {
+    /// SQLite: hands `request` to `kind`, which writes it with the other requests of its kind
+    /// in the writer's next transaction ([`Batched::write`]); replies once that transaction
+    /// has committed and is durable. Exact because every SQLite writer is serialised (`BEGIN
+    /// IMMEDIATE`); not for PostgreSQL (see the module comment).
+    pub async fn submit<B: Batched>(
+        &self,
+        kind: &'static B,
+        request: B::Request,
+    ) -> Result<B::Reply> {
         let (reply, answer) = oneshot::channel();
+        let entry = batched::Typed {
+            kind,
+            request,
+            reply,
+        };
         self.queue
-            .send(Pending::Submit(submit, reply))
+            .send(Pending::Batched(Box::new(entry)))
             .map_err(|_| stopped())?;
         answer.await.map_err(|_| dropped())?
     }
@@ -259,13 +244,13 @@ impl AnswerWriter {
 #[derive(Default)]
 struct Batch {
     writes: Vec<(AnswerWrite, oneshot::Sender<Result<Written>>)>,
-    submits: Vec<(AnswerSubmit, oneshot::Sender<Result<Submitted>>)>,
+    batched: Vec<Box<dyn batched::Entry>>,
     jobs: Vec<Job>,
 }
 
 impl Batch {
     fn len(&self) -> usize {
-        self.writes.len() + self.submits.len()
+        self.writes.len() + self.batched.len()
     }
 
     /// Adds `p`; a job beyond [`MAX_JOBS`] waits in `deferred` for a later batch, so answers
@@ -273,7 +258,7 @@ impl Batch {
     fn push(&mut self, p: Pending, deferred: &mut VecDeque<Job>) {
         match p {
             Pending::Write(w, r) => self.writes.push((w, r)),
-            Pending::Submit(s, r) => self.submits.push((s, r)),
+            Pending::Batched(e) => self.batched.push(e),
             Pending::Job(j) if self.jobs.len() < MAX_JOBS => self.jobs.push(j),
             Pending::Job(j) => deferred.push_back(j),
         }

@@ -6,9 +6,8 @@ use std::collections::VecDeque;
 use sqlx::{AnyConnection, AnyPool};
 use tokio::sync::{mpsc, oneshot};
 
-use super::{AnswerWrite, Batch, Pending, Written, wrong_backend};
+use super::{AnswerWrite, Batch, Pending, STORE_ANSWER, Written, wrong_backend};
 use crate::error::{AppError, Result};
-use crate::flow::STORE_ANSWER;
 
 /// Writes batches until every sender is gone.
 pub(super) async fn run(pool: AnyPool, mut rx: mpsc::UnboundedReceiver<Pending>) {
@@ -31,12 +30,12 @@ pub(super) async fn run(pool: AnyPool, mut rx: mpsc::UnboundedReceiver<Pending>)
 async fn run_batch(pool: &AnyPool, batch: Batch) {
     let Batch {
         writes,
-        submits,
+        batched,
         jobs,
     } = batch;
-    // SQLite's requests never come here ([`crate::flow`] routes by backend).
-    for (_, reply) in submits {
-        let _ = reply.send(Err(wrong_backend("an answer submission")));
+    // SQLite's requests never come here (their callers route by backend).
+    for entry in batched {
+        entry.refuse(wrong_backend("a batched request"));
     }
     if !jobs.is_empty() {
         eprintln!("error: {}", wrong_backend("a job"));

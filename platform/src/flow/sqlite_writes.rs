@@ -221,7 +221,7 @@ impl SlotClaim {
     }
 }
 
-/// [`super::complete_in`] on the answer writer's connection, inside its transaction.
+/// [`super::answers::complete_in`] on the answer writer's connection, inside its transaction.
 pub(crate) fn complete_in_sqlite(conn: &Connection, a: AssignmentId, threshold: u32) -> Result<()> {
     if execute(conn, COMPLETE, &[&now_ms(), &a.0])? == 1 {
         let errors = qc::control_errors_sqlite(conn, a)?;
