@@ -29,11 +29,11 @@ async fn demo_setup_simulation_and_dashboard() {
     assert_eq!((report.honest, report.spammers), (8, 2));
     let (d, workers) = dashboard::compute(&db, &study).await.expect("dashboard");
     assert_eq!(d.completed, 10);
-    // Spammers answer the 5 controls at random: most, not all, are caught; honest workers
+    // Spammers answer the 8 controls at random: most, not all, are caught; honest workers
     // (95% right on controls) are almost always kept.
     assert!(d.rejected <= 4, "{d:?}");
     assert!(workers.iter().all(|w| w.answered == 50));
-    assert_eq!(d.answers, 10 * 45);
+    assert_eq!(d.answers, 10 * 42);
 
     let files = export::build(&db, &study, export::ExportOptions::default(), "http://x")
         .await
@@ -44,7 +44,7 @@ async fn demo_setup_simulation_and_dashboard() {
         .expect("triplets")
         .1;
     let rows = String::from_utf8_lossy(triplets).lines().count() - 1;
-    assert_eq!(rows as i64, (d.completed - d.rejected) * 45);
+    assert_eq!(rows as i64, (d.completed - d.rejected) * 42);
 
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
         .await

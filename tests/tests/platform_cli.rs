@@ -100,3 +100,51 @@ fn a_blank_drawing_is_skipped_and_named_and_the_import_goes_on() {
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("nothing imported"), "{stderr}");
 }
+
+/// Issue 16: `demo --help` named `platform.db` while the demo wrote `platform-demo.db`, and
+/// `demo --no-serve` printed a listening address although nothing listened.
+#[test]
+fn the_demo_says_which_database_it_uses_and_does_not_claim_to_listen() {
+    let run = |args: &[&str], dir: &std::path::Path| {
+        let out = std::process::Command::new(e2e::binary("platform", "platform"))
+            .args(args)
+            .current_dir(dir)
+            .env_remove("PLATFORM_DATABASE_URL")
+            .env_remove("PLATFORM_BIND")
+            .output()
+            .expect("run platform");
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let dir = tempfile::tempdir().expect("temp dir");
+    let help = run(&["demo", "--help"], dir.path());
+    assert!(
+        help.contains("[default: sqlite://platform-demo.db]"),
+        "{help}"
+    );
+    let help = run(&["serve", "--help"], dir.path());
+    assert!(help.contains("[default: sqlite://platform.db]"), "{help}");
+
+    let fixtures = e2e::fixture("style");
+    let printed = run(
+        &[
+            "demo",
+            "--no-serve",
+            "--fixtures",
+            &fixtures.to_string_lossy(),
+        ],
+        dir.path(),
+    );
+    assert!(!printed.contains("listening on"), "{printed}");
+    // The links point where `platform serve` listens by default.
+    assert!(
+        printed.contains("worker link: http://127.0.0.1:8080/s/"),
+        "{printed}"
+    );
+    assert!(dir.path().join("platform-demo.db").exists());
+    assert!(!dir.path().join("platform.db").exists());
+}

@@ -273,8 +273,19 @@ async fn train_from_answers(db: TestDb) {
             .unwrap()
             .contains("default-src 'none'")
     );
+    // Issue 16: nothing may frame the report, and it leads back to its study.
+    assert!(
+        resp.headers()["content-security-policy"]
+            .to_str()
+            .unwrap()
+            .contains("frame-ancestors 'none'")
+    );
     let html = resp.text().await.expect("report body");
     assert!(html.contains("Style metric report"), "{html}");
+    assert!(
+        html.contains(&format!("<a href=\"/admin/studies/{study}#models\">")),
+        "no link back to the study: {html}"
+    );
     assert!(
         html.contains("Agreement with the study's answers"),
         "{html}"
@@ -393,4 +404,99 @@ async fn train_from_answers(db: TestDb) {
     let bad = platform_cmd(&["train", "1", "--database-url", &db.url], &[]);
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("not found"));
+}
+
+/// Issue 16: `platform demo --simulate 20` trained a metric no better than uniform weights (λ at
+/// the grid's end, 1 of 169 weights, agreement 0.567 against 0.568). Its honest raters now
+/// answer by a hidden sparse style metric; the metric trained on their answers must beat uniform
+/// weights on held-out answers with disjoint 95% intervals, and the report must mark the λ.
+#[test]
+fn demo_metric_beats_uniform_with_disjoint_intervals() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let url = format!("sqlite://{}", dir.path().join("demo.db").display());
+    let fixtures = e2e::fixture("style");
+    let printed = platform_ok(
+        &[
+            "demo",
+            "--simulate",
+            "20",
+            "--seed",
+            "17",
+            "--no-serve",
+            "--database-url",
+            &url,
+            "--bind",
+            "127.0.0.1:0",
+            "--fixtures",
+            &fixtures.to_string_lossy(),
+        ],
+        &[],
+    );
+    eprintln!("{printed}");
+    let line = printed
+        .lines()
+        .find(|l| l.starts_with("trained the style metric"))
+        .unwrap_or_else(|| panic!("no training line:\n{printed}"));
+    assert!(line.contains("held-out: learned"), "{line}");
+    assert!(
+        !printed.contains("listening on"),
+        "--no-serve listens nowhere:\n{printed}"
+    );
+    assert!(!line.contains("overlap"), "{line}");
+    assert!(
+        !printed.contains("note:"),
+        "no warning expected:\n{printed}"
+    );
+
+    let rt = tokio::runtime::Runtime::new().expect("runtime");
+    let (held_out, lambda, nonzero, report, chart) = rt.block_on(async {
+        sqlx::any::install_default_drivers();
+        let pool = sqlx::AnyPool::connect(&url).await.expect("connect");
+        let (held_out, lambda, nonzero, id): (String, f64, i64, i64) = sqlx::query_as(
+            "SELECT held_out, lambda, nonzero, id FROM models WHERE status = 'done'",
+        )
+        .fetch_one(&pool)
+        .await
+        .expect("one trained model");
+        let file = |name: &'static str| {
+            let pool = pool.clone();
+            async move {
+                let (bytes,): (Vec<u8>,) = sqlx::query_as(
+                    "SELECT bytes FROM model_files WHERE model_id = $1 AND name = $2",
+                )
+                .bind(id)
+                .bind(name)
+                .fetch_one(&pool)
+                .await
+                .expect(name);
+                String::from_utf8(bytes).expect("text file")
+            }
+        };
+        let report = file("index.html").await;
+        let chart = file("lambda.svg").await;
+        pool.close().await;
+        (held_out, lambda, nonzero, report, chart)
+    });
+    let h: Value = serde_json::from_str(&held_out).expect("held_out JSON");
+    let get = |who: &str, what: &str| h[who][what].as_f64().expect("interval bound");
+    assert_eq!(h["unit"], "worker", "{h}");
+    assert!(
+        get("learned", "low") > get("uniform", "high"),
+        "learned {} [{}, {}] vs uniform {} [{}, {}]",
+        get("learned", "value"),
+        get("learned", "low"),
+        get("learned", "high"),
+        get("uniform", "value"),
+        get("uniform", "low"),
+        get("uniform", "high"),
+    );
+    assert!(get("difference", "low") > 0.05, "{h}");
+    // A sparse metric, neither empty nor everything.
+    assert!((1..=40).contains(&nonzero), "{nonzero} weights");
+    // The report shows the search with the chosen λ marked, in the table and on the chart.
+    let label = format!("chosen λ = {lambda:.4}");
+    assert!(report.contains(&label), "report lacks {label}");
+    assert!(report.contains("class=\"chosen\""));
+    assert!(report.contains("Held-out agreement"));
+    assert!(chart.contains(&label), "chart lacks {label}");
 }

@@ -32,6 +32,9 @@ pub enum Command {
     /// Run the server.
     Serve(ServerArgs),
     /// A ready-to-use demo: SQLite file, fixture library, a study, an admin, then serve.
+    // Its own database by default, so that trying the demo never touches `platform.db`; set
+    // here so that `demo --help` shows the file it really uses.
+    #[command(mut_arg("database_url", |a| a.default_value(DEMO_DATABASE_URL)))]
     Demo(DemoArgs),
     /// Manage item libraries.
     #[command(subcommand)]
@@ -50,6 +53,9 @@ pub enum Command {
     /// Load benchmark against a real server on loopback.
     Bench(bench::BenchArgs),
 }
+
+/// The demo's database when neither `--database-url` nor `PLATFORM_DATABASE_URL` is given.
+pub const DEMO_DATABASE_URL: &str = "sqlite://platform-demo.db";
 
 /// Database settings.
 #[derive(Debug, Clone, Args)]
@@ -104,22 +110,30 @@ impl ServerArgs {
             .await
             .map_err(|e| AppError::BadRequest(format!("cannot listen on {}: {e}", self.bind)))?;
         let addr = listener.local_addr().map_err(AppError::internal)?;
-        let public = self
-            .public_url
-            .clone()
-            .unwrap_or_else(|| format!("http://{addr}"));
         outln!("listening on http://{addr}")?;
         Ok((
             listener,
-            AppState::new(db, public, self.secure_cookies, self.max_body_bytes),
+            AppState::new(
+                db,
+                self.public_base(addr),
+                self.secure_cookies,
+                self.max_body_bytes,
+            ),
         ))
+    }
+
+    /// The base address of links: `--public-url`, else `http://ADDR` of the bound address.
+    pub fn public_base(&self, addr: SocketAddr) -> String {
+        self.public_url
+            .clone()
+            .unwrap_or_else(|| format!("http://{addr}"))
     }
 }
 
 /// `platform demo`.
 #[derive(Debug, Clone, Args)]
 pub struct DemoArgs {
-    /// Server settings (the database defaults to `platform-demo.db` here).
+    /// Server settings (the database defaults to [`DEMO_DATABASE_URL`] here).
     #[command(flatten)]
     pub server: ServerArgs,
     /// Folder of the fixture clip art (with `labels.csv`).
@@ -129,6 +143,9 @@ pub struct DemoArgs {
     /// the style metric on their answers.
     #[arg(long, default_value_t = 0)]
     pub simulate: u32,
+    /// Seed of the simulated workers (default: the clock, so that every run adds new workers).
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Set everything up, print the links, and exit without serving.
     #[arg(long)]
     pub no_serve: bool,
@@ -290,19 +307,7 @@ pub async fn run(cli: Cli) -> Result<()> {
             };
             eprintln!("training the style metric of study {} …", s.id);
             let m = train::run(&db, &s, opts).await?;
-            let pct =
-                |v: Option<f64>| v.map_or_else(|| "–".into(), |v| format!("{:.1}%", 100.0 * v));
-            outln!(
-                "model {}: {} answers, λ = {:.4}, {} of 169 weights non-zero; agreement with the \
-                 answers {} (uniform weights {}), held-out {}",
-                m.id,
-                m.triplets.unwrap_or(0),
-                m.lambda.unwrap_or(f64::NAN),
-                m.nonzero.unwrap_or(0),
-                pct(m.train_accuracy),
-                pct(m.uniform_accuracy),
-                pct(m.cv_accuracy),
-            )?;
+            outln!("{}", m.describe())?;
             if let Some(note) = &m.message {
                 outln!("note: {note}")?;
             }

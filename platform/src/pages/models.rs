@@ -48,11 +48,20 @@ pub(super) struct ModelRow {
     pub(super) train_accuracy: String,
     pub(super) uniform_accuracy: String,
     pub(super) cv_accuracy: String,
+    pub(super) held_out_uniform: String,
 }
 
 impl From<ModelSummary> for ModelRow {
     fn from(m: ModelSummary) -> Self {
         let pct = |v: Option<f64>| v.map_or_else(String::new, |v| format!("{:.1}%", 100.0 * v));
+        let interval = |i: &train::Interval| {
+            format!(
+                "{:.1}% [{:.1}–{:.1}]",
+                100.0 * i.value,
+                100.0 * i.low,
+                100.0 * i.high
+            )
+        };
         Self {
             id: m.id,
             status: m.status,
@@ -63,7 +72,15 @@ impl From<ModelSummary> for ModelRow {
             nonzero: m.nonzero.map_or_else(String::new, |v| v.to_string()),
             train_accuracy: pct(m.train_accuracy),
             uniform_accuracy: pct(m.uniform_accuracy),
-            cv_accuracy: pct(m.cv_accuracy),
+            // Held out with intervals when recorded (cross-validated λ), else the CV mean.
+            cv_accuracy: m
+                .held_out
+                .as_ref()
+                .map_or_else(|| pct(m.cv_accuracy), |h| interval(&h.learned)),
+            held_out_uniform: m
+                .held_out
+                .as_ref()
+                .map_or_else(String::new, |h| interval(&h.uniform)),
         }
     }
 }
@@ -120,6 +137,11 @@ async fn admin_report_redirect(
     }))
 }
 
+/// The report's policy: static (no script), its own images, the learner's inline style, and
+/// never framed by another page (clickjacking).
+const REPORT_CSP: &str =
+    "default-src 'none'; img-src 'self'; style-src 'unsafe-inline'; frame-ancestors 'none'";
+
 /// A stored report file. The report is static (no script); the CSP keeps it that way.
 async fn report_file(
     state: &AppState,
@@ -128,17 +150,35 @@ async fn report_file(
     file: &str,
 ) -> Result<Response> {
     let (content_type, bytes) = train::file(&state.db, id, model, file).await?;
+    let bytes = if file == "index.html" {
+        with_back_link(bytes, id)
+    } else {
+        bytes
+    };
     Ok((
         [
             (header::CONTENT_TYPE, content_type),
-            (
-                header::CONTENT_SECURITY_POLICY,
-                "default-src 'none'; img-src 'self'; style-src 'unsafe-inline'",
-            ),
+            (header::CONTENT_SECURITY_POLICY, REPORT_CSP),
+            (header::X_FRAME_OPTIONS, "DENY"),
         ],
         bytes,
     )
         .into_response())
+}
+
+/// The learner writes a report that knows nothing of the platform; served here it opens with a
+/// link back to its study's models (also for reports stored before the link existed).
+fn with_back_link(html: Vec<u8>, id: StudyId) -> Vec<u8> {
+    let link = format!("<nav><a href=\"/admin/studies/{id}#models\">← Back to the study</a></nav>");
+    let text = String::from_utf8_lossy(&html);
+    // After the learner's `<style>` block (the head's last element), else first.
+    match text.find("</style>") {
+        Some(at) => {
+            let at = at + "</style>".len();
+            format!("{}{link}{}", &text[..at], &text[at..]).into_bytes()
+        }
+        None => format!("{link}{text}").into_bytes(),
+    }
 }
 
 async fn admin_report_index(

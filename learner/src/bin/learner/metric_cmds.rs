@@ -14,7 +14,7 @@ use learner::eval::report::{learning_curve, write_report};
 use learner::eval::triplets::{BootstrapParams, Estimate, MethodScores};
 use learner::eval::{EvalReport, RankReport, evaluate, rank};
 use learner::metric::Model;
-use learner::metric::cv::{CvParams, cross_validate, default_grid};
+use learner::metric::cv::{CvParams, CvReport, cross_validate, default_grid};
 use learner::metric::model::{fit_scaling, standardise};
 use learner::metric::objective::{DEFAULT_SMOOTHING, TripletObjective};
 use learner::metric::simulate::{SimulationParams, simulate};
@@ -239,6 +239,9 @@ pub fn run_train(a: &TrainArgs) -> Result<()> {
             pb.set_position(done as u64);
             pb.set_message("cross-validation");
         }
+        TrainProgress::Path { done, total } => {
+            pb.set_message(format!("final fit: path {done}/{total}"))
+        }
         TrainProgress::Final {
             iteration,
             objective,
@@ -262,27 +265,75 @@ pub fn run_train(a: &TrainArgs) -> Result<()> {
         a.out.display()
     )?;
     if let Some(cv) = &model.cv {
-        outln!(
-            "{:>12} {:>10} {:>10} {:>9}",
-            "λ",
-            "log-loss",
-            "accuracy",
-            "non-zero"
-        )?;
-        for r in &cv.rows {
-            outln!(
-                "{:>12.4} {:>10.5} {:>10.4} {:>9.1}{}",
-                r.lambda,
-                r.log_loss,
-                r.accuracy,
-                r.nonzero,
-                if r.lambda == cv.chosen {
-                    "  ← chosen"
-                } else {
-                    ""
-                }
-            )?;
+        print_cv(cv)?;
+    }
+    Ok(())
+}
+
+/// The λ search: the curve with ±1 SE, which λ the rules picked, the uniform baseline, the
+/// held-out agreement with intervals; warnings on stderr.
+fn print_cv(cv: &CvReport) -> Result<()> {
+    outln!(
+        "{:>12} {:>19} {:>10} {:>9}",
+        "λ",
+        "log-loss ± SE",
+        "accuracy",
+        "non-zero"
+    )?;
+    for r in &cv.rows {
+        let mut marks = Vec::new();
+        if r.lambda == cv.chosen {
+            marks.push("chosen");
         }
+        if cv.minimum == Some(r.lambda) {
+            marks.push("minimum");
+        }
+        if cv.one_se == Some(r.lambda) {
+            marks.push("one-SE rule");
+        }
+        outln!(
+            "{:>12.4} {:>10.5} ± {:<7.5} {:>10.4} {:>9.1}{}",
+            r.lambda,
+            r.log_loss,
+            r.std_error,
+            r.accuracy,
+            r.nonzero,
+            if marks.is_empty() {
+                String::new()
+            } else {
+                format!("  ← {}", marks.join(", "))
+            }
+        )?;
+    }
+    if let Some(u) = &cv.uniform {
+        outln!(
+            "{:>12} {:>10.5} ± {:<7.5} {:>10.4} {:>9}",
+            "uniform",
+            u.log_loss,
+            u.std_error,
+            u.accuracy,
+            "all"
+        )?;
+    }
+    if let Some(a) = &cv.agreement {
+        outln!(
+            "held-out agreement ({}-fold, 95% intervals by bootstrap over {} {}s): learned {}, \
+             uniform {}, difference {}{}",
+            cv.folds,
+            a.units,
+            a.unit,
+            est(&a.learned),
+            est(&a.uniform),
+            est(&a.difference),
+            if a.learned_clearly_better() {
+                ""
+            } else {
+                " (intervals overlap)"
+            }
+        )?;
+    }
+    for w in &cv.warnings {
+        eprintln!("warning: {w}");
     }
     Ok(())
 }
@@ -741,6 +792,9 @@ pub fn bench_metric(a: &BenchMetricArgs) -> Result<()> {
                 // The CV fits of `learner train`, with their stopping rule.
                 lbfgs: TrainParams::default().cv_lbfgs,
                 zero_threshold: 0.02,
+                // The bench times the grid as given.
+                max_extensions: 0,
+                resamples: 0,
             },
             &mut |done, _| pb.set_position(done as u64),
         )?;

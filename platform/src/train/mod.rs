@@ -4,21 +4,17 @@
 //! unless fixed); the model, its scores and the learner's HTML report are stored in the
 //! database (`models`, `model_files`), so every server behind a load balancer can show them.
 
-use std::path::Path;
+mod fit;
 
-use learner::metric::model::Model;
 use learner::metric::train::{LambdaChoice, TrainParams};
-use learner::table::FeatureTable;
-use learner::triplets::TripletSet;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use sqlx::Row;
 
 use crate::db::{Db, now_ms};
 use crate::error::{AppError, Result};
-use crate::export::{self, ExportOptions};
 use crate::ids::{ModelId, StudyId};
-use crate::library;
 use crate::study::Study;
+pub use fit::{Fitted, TrainingData, collect, fit};
 
 /// A training that started this long ago and never finished is taken for dead (its server
 /// stopped); a new one may start.
@@ -91,211 +87,113 @@ pub struct ModelSummary {
     pub train_accuracy: Option<f64>,
     /// The same for the uniform metric (all weights equal), the baseline.
     pub uniform_accuracy: Option<f64>,
-    /// Held-out accuracy at the chosen λ (cross-validation), when λ was chosen.
+    /// Held-out accuracy at the chosen λ (cross-validation, mean over folds), when λ was chosen.
     pub cv_accuracy: Option<f64>,
+    /// Held-out agreement of the learned and the uniform metric with 95% intervals, when λ was
+    /// chosen by cross-validation (absent for models trained before it was recorded).
+    pub held_out: Option<HeldOut>,
 }
 
-/// The library's features and the study's answers, ready for the learner.
-#[derive(Debug, Clone)]
-pub struct TrainingData {
-    /// Features of every library item, ids = item names (as in `triplets.csv`).
-    pub table: FeatureTable,
-    /// The exported answers (completed, non-rejected HITs; no controls, no training).
-    pub set: TripletSet,
-    /// Notes for the admin (e.g. folds grouped by tuple for lack of workers).
-    pub notes: Vec<String>,
+/// A proportion with its 95% interval.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct Interval {
+    /// The estimate.
+    pub value: f64,
+    /// 2.5th percentile of the bootstrap.
+    pub low: f64,
+    /// 97.5th percentile of the bootstrap.
+    pub high: f64,
 }
 
-/// Reads the training data of `study`. Fails with a clear message when there are no answers.
-pub async fn collect(db: &Db, study: &Study, opts: &TrainOptions) -> Result<TrainingData> {
-    opts.params()?;
-    let items = library::list_items(db, study.library).await?;
-    let mut features = library::item_features(db, study.library).await?;
-    let names: Vec<String> = learner::features::catalogue()
-        .into_iter()
-        .map(|f| f.name.to_string())
-        .collect();
-    let mut ids = Vec::with_capacity(items.len());
-    let mut values = Vec::with_capacity(items.len() * names.len());
-    for item in &items {
-        let row = features
-            .remove(&item.id)
-            .ok_or_else(|| AppError::Internal(format!("item {} has no features", item.name)))?;
-        if row.len() != names.len() {
-            return Err(AppError::Internal(format!(
-                "item {} has {} features, expected {}",
-                item.name,
-                row.len(),
-                names.len()
-            )));
-        }
-        ids.push(item.name.clone());
-        values.extend(row);
-    }
-    let table = FeatureTable::new(names, ids, values).map_err(AppError::internal)?;
-    let files = export::build(db, study, ExportOptions::default(), "").await?;
-    let csv = files
-        .into_iter()
-        .find(|(name, _)| name == "triplets.csv")
-        .map(|(_, bytes)| bytes)
-        .ok_or_else(|| AppError::Internal("export has no triplets.csv".into()))?;
-    let answers = csv
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        .saturating_sub(1);
-    if answers == 0 {
-        return Err(AppError::Conflict(
-            "no answers to train on yet: the metric is fitted on the main answers of completed, \
-             non-rejected HITs"
-                .into(),
-        ));
-    }
-    let mut set = learner::triplets::read_triplets_from(
-        csv.as_slice(),
-        Path::new("triplets.csv"),
-        &table,
-        false,
-    )
-    .map_err(|e| AppError::Internal(format!("exported triplets do not read back: {e}")))?;
-    let mut notes = Vec::new();
-    if opts.lambda.is_none() {
-        let workers: std::collections::HashSet<Option<u32>> =
-            set.triplets.iter().map(|t| t.worker).collect();
-        let tuples: std::collections::HashSet<u32> = set.triplets.iter().map(|t| t.tuple).collect();
-        if set.has_workers && workers.len() < opts.folds {
-            set.has_workers = false;
-            notes.push(format!(
-                "cross-validation folds grouped by tuple: only {} worker(s) for {} folds",
-                workers.len(),
-                opts.folds
-            ));
-        }
-        if tuples.len() < opts.folds {
-            return Err(AppError::Conflict(format!(
-                "too few answers to choose λ by {}-fold cross-validation ({} distinct triplets); \
-                 collect more answers or give λ",
-                opts.folds,
-                tuples.len()
-            )));
+impl From<learner::eval::triplets::Estimate> for Interval {
+    fn from(e: learner::eval::triplets::Estimate) -> Self {
+        Self {
+            value: e.value,
+            low: e.low,
+            high: e.high,
         }
     }
-    Ok(TrainingData { table, set, notes })
 }
 
-/// A fitted model with its scores and the files to store.
-#[derive(Debug, Clone)]
-pub struct Fitted {
-    /// The model.
-    pub model: Model,
-    /// Training-set accuracy of the learned metric.
-    pub train_accuracy: f64,
-    /// Training-set accuracy of the uniform metric.
-    pub uniform_accuracy: f64,
-    /// Held-out accuracy at the chosen λ.
-    pub cv_accuracy: Option<f64>,
-    /// `(name, bytes)`: `index.html`, its figures, `model.json`.
-    pub files: Vec<(String, Vec<u8>)>,
-    /// Notes carried from [`TrainingData`].
-    pub notes: Vec<String>,
+/// Agreement with the answers on held-out data: every answer predicted by the
+/// cross-validation fold model that did not see it (at the chosen λ), intervals by bootstrap
+/// over workers (or tuples, when folds were grouped by tuple).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct HeldOut {
+    /// What the bootstrap resamples: `worker` or `tuple`.
+    pub unit: String,
+    /// Distinct workers (or tuples).
+    pub units: i64,
+    /// Answers scored.
+    pub answers: i64,
+    /// Fraction of the answers the learned metric predicts.
+    pub learned: Interval,
+    /// The same for uniform weights.
+    pub uniform: Interval,
+    /// Learned minus uniform, with its paired interval.
+    pub difference: Interval,
 }
 
-/// Fraction of answers a metric agrees with (`P(q = 1)` per triplet; ties count half).
-fn accuracy(p_q1: &[f64], set: &TripletSet) -> f64 {
-    let agree: f64 = p_q1
-        .iter()
-        .zip(&set.triplets)
-        .map(|(&p, t)| {
-            let p_answer = if t.q { p } else { 1.0 - p };
-            if p_answer > 0.5 {
-                1.0
-            } else if p_answer == 0.5 {
-                0.5
-            } else {
-                0.0
-            }
-        })
-        .sum();
-    agree / set.triplets.len().max(1) as f64
+impl From<&learner::metric::cv::HeldOutAgreement> for HeldOut {
+    fn from(a: &learner::metric::cv::HeldOutAgreement) -> Self {
+        Self {
+            unit: a.unit.clone(),
+            units: a.units as i64,
+            answers: a.answers as i64,
+            learned: a.learned.into(),
+            uniform: a.uniform.into(),
+            difference: a.difference.into(),
+        }
+    }
 }
 
-fn html_escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
+impl HeldOut {
+    /// The learned metric's interval lies wholly above the uniform metric's.
+    pub fn learned_clearly_better(&self) -> bool {
+        self.learned.low > self.uniform.high
+    }
 }
 
-/// Fits the metric and renders the report (CPU-bound: call from a blocking thread).
-pub fn fit(data: TrainingData, opts: &TrainOptions) -> Result<Fitted> {
-    let params = opts.params()?;
-    let TrainingData {
-        table,
-        set,
-        mut notes,
-    } = data;
-    let model = learner::metric::train::train(&table, &set, &params, &mut |_| {})
-        .map_err(|e| AppError::BadRequest(format!("training failed: {e}")))?;
-    if model.nonzero == 0 {
-        // Cross-validation's one-standard-error rule may prefer the empty metric on little or
-        // noisy data; say so rather than show a report of zeros without comment.
-        notes.push(format!(
-            "every weight is zero at λ = {:.4}: the answers show no style signal the features \
-             capture consistently; collect more answers or give a smaller λ",
-            model.lambda
-        ));
+impl ModelSummary {
+    /// One line for the CLI: answers, λ, sparsity, agreement on the training answers and
+    /// held out, with intervals.
+    pub fn describe(&self) -> String {
+        let pct = |v: Option<f64>| v.map_or_else(|| "–".into(), |v| format!("{:.1}%", 100.0 * v));
+        let interval = |i: &Interval| {
+            format!(
+                "{:.1}% [{:.1}, {:.1}]",
+                100.0 * i.value,
+                100.0 * i.low,
+                100.0 * i.high
+            )
+        };
+        let held_out = match &self.held_out {
+            Some(h) => format!(
+                "held-out: learned {}, uniform weights {} (95% intervals, bootstrap over {} \
+                 {}s){}",
+                interval(&h.learned),
+                interval(&h.uniform),
+                h.units,
+                h.unit,
+                if h.learned_clearly_better() {
+                    ""
+                } else {
+                    "; the intervals overlap"
+                }
+            ),
+            None => format!("held-out {}", pct(self.cv_accuracy)),
+        };
+        format!(
+            "model {}: {} answers, λ = {:.4}, {} of 169 weights non-zero; agreement with the \
+             answers {} (uniform weights {}); {held_out}",
+            self.id,
+            self.triplets.unwrap_or(0),
+            self.lambda.unwrap_or(f64::NAN),
+            self.nonzero.unwrap_or(0),
+            pct(self.train_accuracy),
+            pct(self.uniform_accuracy),
+        )
     }
-    let predict = |w: &[f64]| {
-        learner::eval::predict(&model, &table, &set.triplets, w)
-            .map_err(|e| AppError::Internal(e.to_string()))
-    };
-    let train_accuracy = accuracy(&predict(&model.weights)?, &set);
-    let uniform_accuracy = accuracy(
-        &predict(&vec![model.uniform_scale; model.weights.len()])?,
-        &set,
-    );
-    let cv_accuracy = model.cv.as_ref().and_then(|cv| {
-        cv.rows
-            .iter()
-            .find(|r| r.lambda == cv.chosen)
-            .map(|r| r.accuracy)
-    });
-    let mut extra = format!(
-        "<h2>Agreement with the study's answers</h2><table><tr><th>metric</th><th>training \
-         answers</th></tr><tr><td style=\"text-align:left\">learned</td><td>{train_accuracy:.3}\
-         </td></tr><tr><td style=\"text-align:left\">uniform weights</td><td>\
-         {uniform_accuracy:.3}</td></tr></table>"
-    );
-    if let Some(cv) = cv_accuracy {
-        extra.push_str(&format!(
-            "<p>Held-out accuracy at the chosen λ ({}-fold cross-validation): {cv:.3}</p>",
-            params.folds
-        ));
-    }
-    for note in &notes {
-        extra.push_str(&format!("<p>{}</p>", html_escape(note)));
-    }
-    let dir = tempfile::tempdir().map_err(AppError::internal)?;
-    let written = learner::eval::report::write_report(dir.path(), &model, None, &extra)
-        .map_err(AppError::internal)?;
-    let model_path = dir.path().join("model.json");
-    model.save(&model_path).map_err(AppError::internal)?;
-    let mut files = Vec::new();
-    for path in written.iter().chain(std::iter::once(&model_path)) {
-        let name = path
-            .file_name()
-            .and_then(|n| n.to_str())
-            .ok_or_else(|| AppError::Internal("report file without a name".into()))?
-            .to_string();
-        files.push((name, std::fs::read(path).map_err(AppError::internal)?));
-    }
-    Ok(Fitted {
-        model,
-        train_accuracy,
-        uniform_accuracy,
-        cv_accuracy,
-        files,
-        notes,
-    })
 }
 
 /// Records a training as running. Refuses when another one of the study is running (and not
@@ -335,10 +233,16 @@ pub async fn complete(db: &Db, id: ModelId, outcome: Result<Fitted>) -> Result<(
     match outcome {
         Ok(f) => {
             let message = (!f.notes.is_empty()).then(|| f.notes.join("; "));
+            let held_out = f
+                .held_out
+                .as_ref()
+                .map(serde_json::to_string)
+                .transpose()
+                .map_err(AppError::internal)?;
             sqlx::query(
                 "UPDATE models SET status = 'done', message = $1, finished_at = $2, triplets = $3, \
                  lambda = $4, nonzero = $5, train_accuracy = $6, uniform_accuracy = $7, \
-                 cv_accuracy = $8 WHERE id = $9",
+                 cv_accuracy = $8, held_out = $9 WHERE id = $10",
             )
             .bind(message)
             .bind(now_ms())
@@ -348,6 +252,7 @@ pub async fn complete(db: &Db, id: ModelId, outcome: Result<Fitted>) -> Result<(
             .bind(f.train_accuracy)
             .bind(f.uniform_accuracy)
             .bind(f.cv_accuracy)
+            .bind(held_out)
             .bind(id.0)
             .execute(&mut *tx)
             .await?;
@@ -430,6 +335,11 @@ fn summary(r: &sqlx::any::AnyRow) -> Result<ModelSummary> {
         train_accuracy: r.try_get("train_accuracy")?,
         uniform_accuracy: r.try_get("uniform_accuracy")?,
         cv_accuracy: r.try_get("cv_accuracy")?,
+        held_out: r
+            .try_get::<Option<String>, _>("held_out")?
+            .map(|text| serde_json::from_str(&text))
+            .transpose()
+            .map_err(AppError::internal)?,
     })
 }
 
@@ -439,7 +349,7 @@ macro_rules! select_models {
     ($rest:literal) => {
         concat!(
             "SELECT id, status, message, started_at, finished_at, triplets, lambda, nonzero, \
-             train_accuracy, uniform_accuracy, cv_accuracy FROM models ",
+             train_accuracy, uniform_accuracy, cv_accuracy, held_out FROM models ",
             $rest
         )
     };

@@ -12,21 +12,37 @@
 //!   first from the uniform metric); held-out scores use the weights *after* the 0.02 zeroing
 //!   that the final model applies. The chosen λ minimises the mean held-out log-loss (the log of
 //!   eq. 5.9's perplexity), which is smoother than accuracy, under the **one-standard-error
-//!   rule** (Hastie, Tibshirani & Friedman, ESL §7.10): the largest λ whose mean held-out loss
-//!   is within one standard error (over folds) of the best. Near the optimum the loss curve is
-//!   flat, and the plain minimum keeps spurious small weights (on the simulated crowd: 8
-//!   non-zero instead of the true 6 at equal held-out loss to four digits); the paper wants a
-//!   sparse, interpretable metric.
+//!   rule** (Hastie, Tibshirani & Friedman, ESL §7.10) guarded against the uniform metric
+//!   ([`choice`]): near the optimum the loss curve is flat, and the plain minimum keeps spurious
+//!   small weights (on the simulated crowd: 8 non-zero instead of the true 6 at equal held-out
+//!   loss to four digits); the paper wants a sparse, interpretable metric, but not one that is
+//!   no better than uniform weights.
+//! * The grid **grows** when it does not bracket the choice: while the minimum sits at the
+//!   lower end, or the choice or the minimum at the upper end, one more λ a decade beyond that
+//!   end is fitted in every fold (warm-started from the fold's solution at that end), at most
+//!   [`CvParams::max_extensions`] times per end. A choice still at an end is reported
+//!   ([`CvReport::at_edge`], [`CvWarning::AtEdge`]).
+//! * The uniform metric `w = c·1`, `c` fitted on each fold's training part, is scored on the
+//!   same held-out answers ([`CvReport::uniform`]), and the out-of-fold predictions at the
+//!   chosen λ give the held-out agreement of both metrics with bootstrap intervals
+//!   ([`agreement`]).
+
+pub mod agreement;
+pub mod choice;
+mod search;
 
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::objective::{DEFAULT_SMOOTHING, FusedObjective, TripletObjective};
-use super::solver::{CurvatureMemory, LbfgsParams, SolverKind, minimise_warm};
+use super::objective::{FusedObjective, TripletObjective};
+use super::solver::{LbfgsParams, SolverKind};
 use crate::triplets::Triplet;
 use crate::{Error, Result};
+pub use agreement::HeldOutAgreement;
+pub use choice::{CvWarning, Edge};
+pub use search::cross_validate;
 
 /// One λ of the search.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -39,28 +55,82 @@ pub struct CvRow {
     pub perplexity: f64,
     /// Held-out accuracy, averaged over folds.
     pub accuracy: f64,
+    /// Standard error of `accuracy` over folds (0 in reports written before it existed).
+    #[serde(default)]
+    pub accuracy_std_error: f64,
     /// Non-zero weights after zeroing, averaged over folds.
     pub nonzero: f64,
     /// Standard error of `log_loss` over folds (`sd / √k`).
     pub std_error: f64,
     /// Per-fold held-out log-loss.
     pub fold_log_loss: Vec<f64>,
+    /// Per-fold held-out accuracy.
+    #[serde(default)]
+    pub fold_accuracy: Vec<f64>,
 }
 
-/// The whole search.
+/// The uniform metric `w = c·1` on the same held-out answers (`c` fitted on each fold's
+/// training part by maximum likelihood).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Baseline {
+    /// Mean held-out `−log P(q)` per triplet, averaged over folds.
+    pub log_loss: f64,
+    /// `exp(log_loss)`.
+    pub perplexity: f64,
+    /// Held-out accuracy, averaged over folds.
+    pub accuracy: f64,
+    /// Standard error of `accuracy` over folds.
+    pub accuracy_std_error: f64,
+    /// Standard error of `log_loss` over folds.
+    pub std_error: f64,
+    /// Per-fold held-out log-loss.
+    pub fold_log_loss: Vec<f64>,
+    /// Per-fold held-out accuracy.
+    pub fold_accuracy: Vec<f64>,
+}
+
+/// The whole search. Fields added after the first release default when reading older JSON.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CvReport {
     /// Number of folds.
     pub folds: usize,
     /// `worker` or `tuple`.
     pub grouped_by: String,
-    /// One row per λ, increasing.
+    /// One row per λ, increasing (the grid with its extensions).
     pub rows: Vec<CvRow>,
     /// The λ chosen.
     pub chosen: f64,
+    /// The λ of least mean held-out loss.
+    #[serde(default)]
+    pub minimum: Option<f64>,
+    /// The plain one-standard-error rule's λ (before the guard against the uniform metric).
+    #[serde(default)]
+    pub one_se: Option<f64>,
+    /// λ values added beyond the given grid's `[lower, upper]` ends, by a decade each.
+    #[serde(default)]
+    pub extensions: [usize; 2],
+    /// The chosen λ or the minimum is an end of the searched grid: the optimum may lie beyond.
+    #[serde(default)]
+    pub at_edge: bool,
+    /// What a user should know about the choice.
+    #[serde(default)]
+    pub warnings: Vec<CvWarning>,
+    /// The uniform metric on the same held-out answers.
+    #[serde(default)]
+    pub uniform: Option<Baseline>,
+    /// Out-of-fold agreement of the learned (at the chosen λ) and the uniform metric.
+    #[serde(default)]
+    pub agreement: Option<HeldOutAgreement>,
     /// Passes over the training data in all fits (fused evaluations plus curvature passes).
     #[serde(default)]
     pub evaluations: u64,
+}
+
+impl CvReport {
+    /// The row of the chosen λ.
+    pub fn chosen_row(&self) -> Option<&CvRow> {
+        self.rows.iter().find(|r| r.lambda == self.chosen)
+    }
 }
 
 /// The default grid for `n` training triplets: `n · r`, `r` log-spaced in `[1e-5, 1e-1]`.
@@ -78,6 +148,15 @@ pub fn default_grid(n: usize, count: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The fold group of a triplet: its worker, or its tuple.
+pub(crate) fn group_of(t: &Triplet, by_worker: bool) -> usize {
+    if by_worker {
+        t.worker.map_or(0, |w| w as usize)
+    } else {
+        t.tuple as usize
+    }
+}
+
 /// Fold index (0..k) of every triplet, grouped by worker when `by_worker`, else by tuple.
 pub fn assign_folds(
     triplets: &[Triplet],
@@ -92,13 +171,7 @@ pub fn assign_folds(
             reason: "need at least 2 folds",
         });
     }
-    let group = |t: &Triplet| -> usize {
-        if by_worker {
-            t.worker.map_or(0, |w| w as usize)
-        } else {
-            t.tuple as usize
-        }
-    };
+    let group = |t: &Triplet| group_of(t, by_worker);
     let groups = triplets.iter().map(group).max().map_or(0, |m| m + 1);
     let mut sizes = vec![0usize; groups];
     for t in triplets {
@@ -163,6 +236,25 @@ pub fn held_out_scores(
     (loss, correct / test.len() as f64)
 }
 
+/// Credit of each answer under margins `m` (`P(q = 1) = σ(m)`): 1 when predicted, ½ for an
+/// exact tie, 0 otherwise.
+pub(crate) fn credits(margins: &[f64], test: &[Triplet]) -> Vec<f64> {
+    margins
+        .iter()
+        .zip(test)
+        .map(|(&m, t)| {
+            let z = if t.q { m } else { -m };
+            if z > 0.0 {
+                1.0
+            } else if z == 0.0 {
+                0.5
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 /// What the search needs besides the data.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CvParams {
@@ -172,7 +264,7 @@ pub struct CvParams {
     pub grid: Vec<f64>,
     /// Group folds by worker (else by tuple).
     pub by_worker: bool,
-    /// Shuffling seed.
+    /// Shuffling seed (also seeds the agreement bootstrap).
     pub seed: u64,
     /// Solver.
     pub solver: SolverKind,
@@ -180,104 +272,11 @@ pub struct CvParams {
     pub lbfgs: LbfgsParams,
     /// Weights below this are zeroed before scoring.
     pub zero_threshold: f64,
-}
-
-/// Runs the search from starting weights `w0`. `on_fit(done, total)` after every fit.
-pub fn cross_validate(
-    x: &[f64],
-    dim: usize,
-    triplets: &[Triplet],
-    w0: &[f64],
-    params: &CvParams,
-    on_fit: &mut dyn FnMut(usize, usize),
-) -> Result<CvReport> {
-    if params.grid.is_empty() || params.grid.iter().any(|l| !(*l >= 0.0 && l.is_finite())) {
-        return Err(Error::InvalidParameter {
-            name: "lambda grid",
-            value: format!("{:?}", params.grid),
-            reason: "need at least one finite λ ≥ 0",
-        });
-    }
-    let mut grid = params.grid.clone();
-    grid.sort_by(f64::total_cmp);
-    let folds = assign_folds(triplets, params.folds, params.by_worker, params.seed)?;
-    let total = params.folds * grid.len();
-    let mut done = 0;
-    let mut evaluations = 0;
-    // fold_scores[λ index] = per-fold (log-loss, accuracy, non-zero), in fold order.
-    let mut fold_scores: Vec<Vec<(f64, f64, usize)>> = vec![Vec::new(); grid.len()];
-    for f in 0..params.folds {
-        let train: Vec<Triplet> = triplets
-            .iter()
-            .zip(&folds)
-            .filter(|(_, k)| **k != f)
-            .map(|(t, _)| *t)
-            .collect();
-        let test: Vec<Triplet> = triplets
-            .iter()
-            .zip(&folds)
-            .filter(|(_, k)| **k == f)
-            .map(|(t, _)| *t)
-            .collect();
-        let mut w = w0.to_vec();
-        // The fold's data term is the same for every λ (only the linear L1 term changes), so
-        // the solver's curvature memory carries over along the path, like the weights.
-        let mut memory = CurvatureMemory::default();
-        for (li, &lambda) in grid.iter().enumerate() {
-            let obj = TripletObjective::new(x, dim, &train, lambda, DEFAULT_SMOOTHING);
-            debug_assert_eq!(obj.dim(), dim);
-            let (wf, info) = minimise_warm(
-                params.solver,
-                obj,
-                w,
-                &params.lbfgs,
-                &mut memory,
-                &mut |_, _| {},
-            )?;
-            evaluations += info.evaluations + info.curvature_passes;
-            let wz = zero_small(&wf, params.zero_threshold);
-            let (loss, acc) = held_out_scores(x, dim, &test, &wz, DEFAULT_SMOOTHING);
-            fold_scores[li].push((loss, acc, wz.iter().filter(|v| **v > 0.0).count()));
-            w = wf;
-            done += 1;
-            on_fit(done, total);
-        }
-    }
-    let k = params.folds as f64;
-    let rows: Vec<CvRow> = grid
-        .iter()
-        .zip(&fold_scores)
-        .map(|(&lambda, s)| {
-            let log_loss = s.iter().map(|v| v.0).sum::<f64>() / k;
-            let var = s.iter().map(|v| (v.0 - log_loss).powi(2)).sum::<f64>() / (k - 1.0);
-            CvRow {
-                std_error: (var / k).sqrt(),
-                lambda,
-                log_loss,
-                perplexity: log_loss.exp(),
-                accuracy: s.iter().map(|v| v.1).sum::<f64>() / k,
-                nonzero: s.iter().map(|v| v.2 as f64).sum::<f64>() / k,
-                fold_log_loss: s.iter().map(|v| v.0).collect(),
-            }
-        })
-        .collect();
-    let best = rows
-        .iter()
-        .min_by(|a, b| a.log_loss.total_cmp(&b.log_loss))
-        .expect("grid is not empty");
-    let limit = best.log_loss + best.std_error;
-    let chosen = rows
-        .iter()
-        .filter(|r| r.lambda >= best.lambda && r.log_loss <= limit)
-        .map(|r| r.lambda)
-        .fold(best.lambda, f64::max);
-    Ok(CvReport {
-        folds: params.folds,
-        grouped_by: if params.by_worker { "worker" } else { "tuple" }.into(),
-        rows,
-        chosen,
-        evaluations,
-    })
+    /// At most this many λ a decade beyond each end of the grid (module docs). Default in
+    /// [`TrainParams`](super::train::TrainParams): 3; 0 keeps the grid as given.
+    pub max_extensions: usize,
+    /// Bootstrap resamples of the held-out agreement's intervals (0: none). Default 1000.
+    pub resamples: usize,
 }
 
 #[cfg(test)]

@@ -1,105 +1,18 @@
-//! Figures of the paper's §5.6 for a trained model, drawn with plotters as SVG and rendered to
-//! PNG with resvg (so the PNGs get real system fonts without a font file in the repository):
-//!
-//! * Fig. 5.3: learned weights, one bar per feature, coloured and ordered by feature family;
-//! * Fig. 5.4: held-out accuracy and perplexity against λ (the cross-validation table);
-//! * Fig. 5.5: test accuracy and perplexity against the number of training triplets.
-//!
-//! plus an `index.html` that shows them with the model's summary.
+//! Chart drawing shared by the report's figures: plotters with a registered system font, SVG
+//! text rendered to PNG with resvg; Fig. 5.3 (weights) and Fig. 5.5 (learning curve).
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 use plotters::prelude::*;
-use rand::SeedableRng;
-use rand::seq::SliceRandom;
-use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
 
-use super::predict;
-use super::triplets::{BootstrapParams, score};
+use super::CurvePoint;
+use crate::Error;
+use crate::Result;
 use crate::features::{Family, catalogue};
 use crate::metric::Model;
-use crate::metric::cv::CvReport;
-use crate::metric::train::{LambdaChoice, TrainParams, train};
-use crate::table::FeatureTable;
-use crate::triplets::{Triplet, TripletSet};
-use crate::{Error, Result};
 
-/// One point of the learning curve.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct CurvePoint {
-    /// Training triplets used.
-    pub triplets: usize,
-    /// λ used (the model's λ per training triplet, times `triplets`).
-    pub lambda: f64,
-    /// Test accuracy of the learned metric.
-    pub accuracy: f64,
-    /// Test perplexity of the learned metric.
-    pub perplexity: f64,
-    /// Test accuracy of uniform weights.
-    pub uniform_accuracy: f64,
-    /// Test perplexity of uniform weights (scale fitted on the same subset).
-    pub uniform_perplexity: f64,
-    /// Non-zero weights.
-    pub nonzero: usize,
-}
-
-/// Trains on nested seeded subsets of `train_set` of each size in `sizes` (λ scaled with the
-/// subset so the per-triplet regularisation of `model` is kept; no cross-validation) and scores
-/// each on `test`. Sizes above the training-set size are skipped.
-pub fn learning_curve(
-    model: &Model,
-    table: &FeatureTable,
-    train_set: &TripletSet,
-    test: &[Triplet],
-    sizes: &[usize],
-    seed: u64,
-    on_point: &mut dyn FnMut(usize, usize),
-) -> Result<Vec<CurvePoint>> {
-    let mut order: Vec<usize> = (0..train_set.triplets.len()).collect();
-    order.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
-    let per_triplet = model.lambda / model.data.triplets.max(1) as f64;
-    let sizes: Vec<usize> = sizes
-        .iter()
-        .copied()
-        .filter(|&n| n > 0 && n <= order.len())
-        .collect();
-    let mut out = Vec::new();
-    for (i, &n) in sizes.iter().enumerate() {
-        let subset = TripletSet {
-            triplets: order[..n].iter().map(|&k| train_set.triplets[k]).collect(),
-            ..train_set.clone()
-        };
-        let lambda = per_triplet * n as f64;
-        let params = TrainParams {
-            lambda: LambdaChoice::Fixed(lambda),
-            zero_threshold: model.zero_threshold,
-            ..TrainParams::default()
-        };
-        let m = train(table, &subset, &params, &mut |_| {})?;
-        let none = BootstrapParams {
-            resamples: 0,
-            seed: 0,
-        };
-        let learned = score(test, &predict(&m, table, test, &m.weights)?, &none)?;
-        let uniform_w = vec![m.uniform_scale; m.weights.len()];
-        let uniform = score(test, &predict(&m, table, test, &uniform_w)?, &none)?;
-        out.push(CurvePoint {
-            triplets: n,
-            lambda,
-            accuracy: learned.raw.accuracy.value,
-            perplexity: learned.raw.perplexity.value,
-            uniform_accuracy: uniform.raw.accuracy.value,
-            uniform_perplexity: uniform.raw.perplexity.value,
-            nonzero: m.nonzero,
-        });
-        on_point(i + 1, sizes.len());
-    }
-    Ok(out)
-}
-
-fn plot_err(path: &Path) -> impl Fn(String) -> Error + '_ {
+pub(super) fn plot_err(path: &Path) -> impl Fn(String) -> Error + '_ {
     move |message| Error::Plot {
         path: path.to_path_buf(),
         message,
@@ -115,7 +28,7 @@ const FAMILIES: [(Family, &str, RGBColor); 4] = [
 
 /// plotters measures text with ab_glyph, which needs a registered font even for SVG output:
 /// register the system's default sans-serif face once (via the same fontdb resvg uses).
-fn ensure_plot_font() -> Result<()> {
+pub(super) fn ensure_plot_font() -> Result<()> {
     static DONE: OnceLock<std::result::Result<(), String>> = OnceLock::new();
     DONE.get_or_init(|| {
         let db = fonts();
@@ -147,6 +60,24 @@ fn ensure_plot_font() -> Result<()> {
 /// Fig. 5.3: SVG text of the weights bar chart, bars grouped by family (features whose names
 /// are not in the catalogue go last, in grey).
 pub fn weights_svg(model: &Model) -> Result<String> {
+    weights_chart(
+        model.lambda,
+        model.nonzero,
+        &model.feature_names,
+        &model.weights,
+    )
+}
+
+/// Width of the weights chart's key, right of the plot: the key never covers a bar.
+const KEY_WIDTH: u32 = 130;
+
+/// [`weights_svg`] over its parts.
+fn weights_chart(
+    lambda: f64,
+    nonzero: usize,
+    feature_names: &[String],
+    weights: &[f64],
+) -> Result<String> {
     let cat = catalogue();
     // The catalogue first; names from another version of the extractor by their prefix.
     let family_of = |name: &str| {
@@ -161,10 +92,9 @@ pub fn weights_svg(model: &Model) -> Result<String> {
                 _ => None,
             })
     };
-    let mut bars: Vec<(usize, f64, Option<Family>)> = model
-        .feature_names
+    let mut bars: Vec<(usize, f64, Option<Family>)> = feature_names
         .iter()
-        .zip(&model.weights)
+        .zip(weights)
         .map(|(n, &w)| (0, w, family_of(n)))
         .collect();
     let rank = |f: Option<Family>| FAMILIES.iter().position(|x| Some(x.0) == f).unwrap_or(4);
@@ -180,13 +110,14 @@ pub fn weights_svg(model: &Model) -> Result<String> {
     {
         let root = SVGBackend::with_string(&mut svg, (1000, 420)).into_drawing_area();
         root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
-        let mut chart = ChartBuilder::on(&root)
+        let (plot, key) = root.split_horizontally(1000 - KEY_WIDTH);
+        let mut chart = ChartBuilder::on(&plot)
             .caption(
                 format!(
                     "Learned weights (λ = {:.3}, {} of {} non-zero)",
-                    model.lambda,
-                    model.nonzero,
-                    model.weights.len()
+                    lambda,
+                    nonzero,
+                    weights.len()
                 ),
                 ("sans-serif", 20),
             )
@@ -208,6 +139,7 @@ pub fn weights_svg(model: &Model) -> Result<String> {
             .map(|(f, n, c)| (Some(*f), *n, *c))
             .collect();
         groups.push((None, "other", RGBColor(150, 150, 150)));
+        let mut shown = 0;
         for (fam, name, colour) in groups {
             let mine: Vec<_> = bars.iter().filter(|b| b.2 == fam).collect();
             if mine.is_empty() {
@@ -220,25 +152,27 @@ pub fn weights_svg(model: &Model) -> Result<String> {
                         colour.filled(),
                     )
                 }))
-                .map_err(|x| e(x.to_string()))?
-                .label(name)
-                .legend(move |(x, y)| {
-                    Rectangle::new([(x, y - 5), (x + 10, y + 5)], colour.filled())
-                });
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
+                .map_err(|x| e(x.to_string()))?;
+            // The key sits in its own column right of the plot (plotters' series labels go
+            // inside the plot, over the first bars).
+            let y = 60 + 24 * shown;
+            key.draw(&Rectangle::new([(8, y - 6), (20, y + 6)], colour.filled()))
+                .map_err(|x| e(x.to_string()))?;
+            key.draw(&Text::new(
+                name,
+                (28, y - 7),
+                ("sans-serif", 15).into_font().color(&BLACK),
+            ))
             .map_err(|x| e(x.to_string()))?;
+            shown += 1;
+        }
         root.present().map_err(|x| e(x.to_string()))?;
     }
     Ok(svg)
 }
 
 /// Axis tick text: integers without a fraction, small values with two significant digits.
-fn tick(x: f64) -> String {
+pub(super) fn tick(x: f64) -> String {
     if x.abs() >= 10.0 || x == x.round() {
         format!("{x:.0}")
     } else {
@@ -250,13 +184,7 @@ fn tick(x: f64) -> String {
 type Series<'a> = (&'a str, RGBColor, Vec<(f64, f64, f64)>);
 
 /// Two panels (accuracy, perplexity) of `series` against `x`.
-fn two_panel_svg(
-    title: &str,
-    x_desc: &str,
-    log_x: bool,
-    series: &[Series<'_>],
-    mark: Option<f64>,
-) -> Result<String> {
+fn two_panel_svg(title: &str, x_desc: &str, log_x: bool, series: &[Series<'_>]) -> Result<String> {
     ensure_plot_font()?;
     let path = Path::new("chart.svg");
     let e = plot_err(path);
@@ -322,14 +250,6 @@ fn two_panel_svg(
                             .draw_series(line.iter().map(|&p| Circle::new(p, 3, colour.filled())))
                             .map_err(|x| e(x.to_string()))?;
                     }
-                    if let Some(m) = mark {
-                        chart
-                            .draw_series(std::iter::once(PathElement::new(
-                                vec![(m, ylo), (m, yhi)],
-                                BLACK.mix(0.4).stroke_width(1),
-                            )))
-                            .map_err(|x| e(x.to_string()))?;
-                    }
                     chart
                         .configure_series_labels()
                         .background_style(WHITE.mix(0.8))
@@ -347,25 +267,6 @@ fn two_panel_svg(
         root.present().map_err(|x| e(x.to_string()))?;
     }
     Ok(svg)
-}
-
-/// Fig. 5.4: held-out accuracy and perplexity against λ, the chosen λ marked.
-pub fn lambda_svg(cv: &CvReport) -> Result<String> {
-    let pts: Vec<(f64, f64, f64)> = cv
-        .rows
-        .iter()
-        .map(|r| (r.lambda.max(1e-12), r.accuracy, r.perplexity))
-        .collect();
-    two_panel_svg(
-        &format!(
-            "{}-fold cross-validation (grouped by {})",
-            cv.folds, cv.grouped_by
-        ),
-        "λ",
-        true,
-        &[("learned (held-out)", RGBColor(60, 130, 200), pts)],
-        Some(cv.chosen.max(1e-12)),
-    )
 }
 
 /// Fig. 5.5: test accuracy and perplexity against the number of training triplets.
@@ -386,7 +287,6 @@ pub fn curve_svg(points: &[CurvePoint]) -> Result<String> {
             ("learned", RGBColor(60, 130, 200), learned),
             ("uniform", RGBColor(150, 150, 150), uniform),
         ],
-        None,
     )
 }
 
@@ -445,114 +345,44 @@ pub fn svg_to_png(svg: &str, path: &Path) -> Result<Vec<u8>> {
     pixmap.encode_png().map_err(|x| e(x.to_string()))
 }
 
-fn write(path: &Path, bytes: &[u8]) -> Result<()> {
-    std::fs::write(path, bytes).map_err(|source| Error::CannotWrite {
-        path: path.to_path_buf(),
-        source,
-    })
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-/// Writes `<name>.svg` and `<name>.png` into `dir`; returns the file stem.
-fn write_chart(dir: &Path, name: &str, svg: &str) -> Result<String> {
-    write(&dir.join(format!("{name}.svg")), svg.as_bytes())?;
-    let png_path = dir.join(format!("{name}.png"));
-    let png = svg_to_png(svg, &png_path)?;
-    write(&png_path, &png)?;
-    Ok(name.to_owned())
-}
+    /// The numeric attribute `name="…"` of an SVG element's text.
+    fn attr(element: &str, name: &str) -> Option<f64> {
+        let at = element.find(&format!(" {name}=\""))? + name.len() + 3;
+        element[at..].split('"').next()?.parse().ok()
+    }
 
-fn html_escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
-
-/// Writes the figures and `index.html` into `dir` (created if needed); `extra_html` is inserted
-/// verbatim after the summary (e.g. evaluation tables). Returns the files written.
-pub fn write_report(
-    dir: &Path,
-    model: &Model,
-    curve: Option<&[CurvePoint]>,
-    extra_html: &str,
-) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).map_err(|source| Error::CannotWrite {
-        path: dir.to_path_buf(),
-        source,
-    })?;
-    let mut charts = vec![(
-        write_chart(dir, "weights", &weights_svg(model)?)?,
-        "Fig. 5.3 — learned weights by feature family",
-    )];
-    if let Some(cv) = &model.cv {
-        charts.push((
-            write_chart(dir, "lambda", &lambda_svg(cv)?)?,
-            "Fig. 5.4 — held-out accuracy and perplexity against λ",
-        ));
+    /// Issue 16: the key of the weights chart covered the first bars. With a weight on every
+    /// feature, every family's label must lie right of every bar.
+    #[test]
+    fn the_weights_key_covers_no_bar() {
+        let names: Vec<String> = catalogue().iter().map(|f| f.name.to_string()).collect();
+        let weights = vec![1.0; names.len()];
+        let svg = weights_chart(1.0, names.len(), &names, &weights).expect("chart");
+        let bars_right = svg
+            .split("<rect")
+            .skip(1)
+            .filter(|r| attr(r, "height").is_some_and(|h| h > 14.0))
+            .filter(|r| attr(r, "width").is_some_and(|w| w < 100.0))
+            .map(|r| attr(r, "x").unwrap_or(0.0) + attr(r, "width").unwrap_or(0.0))
+            .fold(0.0f64, f64::max);
+        assert!(bars_right > 500.0, "bars found up to x = {bars_right}");
+        for label in ["colour", "shading", "texture", "strokes"] {
+            let text = svg
+                .split("<text")
+                .find(|t| {
+                    let body = t.split('>').nth(1).unwrap_or("");
+                    body.split('<').next().unwrap_or("").trim() == label
+                })
+                .unwrap_or_else(|| panic!("no key entry {label}"));
+            let x = attr(text, "x").expect("text x");
+            assert!(
+                x > bars_right,
+                "{label} at x = {x}, bars reach {bars_right}"
+            );
+        }
     }
-    if let Some(points) = curve
-        && !points.is_empty()
-    {
-        charts.push((
-            write_chart(dir, "learning_curve", &curve_svg(points)?)?,
-            "Fig. 5.5 — learning curve",
-        ));
-        let json = serde_json::to_string_pretty(points).map_err(|source| Error::Json {
-            path: dir.join("learning_curve.json"),
-            source,
-        })?;
-        write(&dir.join("learning_curve.json"), json.as_bytes())?;
-    }
-    let mut top: Vec<(&String, f64)> = model
-        .feature_names
-        .iter()
-        .zip(model.weights.iter().copied())
-        .filter(|(_, w)| *w > 0.0)
-        .collect();
-    top.sort_by(|a, b| b.1.total_cmp(&a.1));
-    let mut html = String::from(
-        "<!doctype html><meta charset=\"utf-8\"><title>Style metric report</title>\
-         <style>body{font-family:sans-serif;max-width:1040px;margin:2em auto}\
-         table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}\
-         img{max-width:100%}</style><h1>Style metric report</h1>",
-    );
-    html.push_str(&format!(
-        "<p>λ = {:.4} · {} of {} weights non-zero (threshold {}) · {} training triplets over {} \
-         items · solver {:?}: {} iterations, {} evaluations, objective {:.6}, converged {} ({}) · \
-         data sha256 <code>{}</code></p>",
-        model.lambda,
-        model.nonzero,
-        model.weights.len(),
-        model.zero_threshold,
-        model.data.triplets,
-        model.data.items,
-        model.solver.solver,
-        model.solver.iterations,
-        model.solver.evaluations,
-        model.solver.objective,
-        model.solver.converged,
-        html_escape(&model.solver.reason),
-        model.data.sha256
-    ));
-    html.push_str(extra_html);
-    for (name, caption) in &charts {
-        html.push_str(&format!(
-            "<figure><img src=\"{name}.svg\" alt=\"{caption}\"><figcaption>{caption} \
-             (<a href=\"{name}.png\">PNG</a>)</figcaption></figure>"
-        ));
-    }
-    html.push_str("<h2>Non-zero weights</h2><table><tr><th>feature</th><th>weight</th></tr>");
-    for (name, w) in top {
-        html.push_str(&format!(
-            "<tr><td style=\"text-align:left\">{}</td><td>{w:.4}</td></tr>",
-            html_escape(name)
-        ));
-    }
-    html.push_str("</table>");
-    write(&dir.join("index.html"), html.as_bytes())?;
-    let mut files = vec![dir.join("index.html")];
-    for (name, _) in &charts {
-        files.push(dir.join(format!("{name}.svg")));
-        files.push(dir.join(format!("{name}.png")));
-    }
-    Ok(files)
 }
