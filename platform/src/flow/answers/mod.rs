@@ -2,7 +2,7 @@
 //! commit, the next open position and the completion of a HIT after its last answer.
 //!
 //! On SQLite the whole answer happens inside the writer's batch transaction
-//! ([`sqlite_batch::ANSWERS`], a [`Batched`](crate::answer_writer::Batched) kind); on PostgreSQL
+//! ([`sqlite_batch::ANSWERS`], a [`Batched`](crate::store::answer_writer::Batched) kind); on PostgreSQL
 //! the read comes before and the next position after the group-committed `UPDATE` (see
 //! `answer_writer` for why).
 
@@ -11,11 +11,12 @@ use sqlx::{AnyConnection, Row};
 use utoipa::ToSchema;
 
 use super::{complete_in_sqlite, valid_token};
-use crate::answer_writer::{AnswerWrite, Written};
-use crate::db::{Backend, Db, now_ms};
 use crate::error::{AppError, Result};
-use crate::ids::{AssignmentId, ItemId, StudyId};
-use crate::{qc, study};
+use crate::flow::qc;
+use crate::store::answer_writer::{AnswerWrite, Written};
+use crate::store::db::{Backend, Db, now_ms};
+use crate::store::ids::{AssignmentId, ItemId, StudyId};
+use crate::studies::study;
 
 mod sqlite_batch;
 
@@ -197,7 +198,7 @@ pub async fn answer(db: &Db, token: &str, req: &AnswerRequest) -> Result<AnswerA
 }
 
 /// SQLite: the read, the checks and the write of [`answer`] all happen in the answer writer's
-/// transaction ([`crate::answer_writer::AnswerWriter::submit`]), batched with the other
+/// transaction ([`crate::store::answer_writer::AnswerWriter::submit`]), batched with the other
 /// answers of that transaction; nothing is read before or after.
 async fn answer_in_batch(db: &Db, token: &str, req: &AnswerRequest) -> Result<AnswerAck> {
     if !valid_token(token) {

@@ -9,11 +9,11 @@ use std::collections::{HashMap, HashSet};
 use rusqlite::Connection;
 
 use super::{ANSWER_TARGET, AnswerTarget, NEXT_OPEN};
-use crate::answer_writer::{Batched, STORE_ANSWER};
-use crate::db::now_ms;
 use crate::error::{AppError, Result};
-use crate::ids::{AssignmentId, StudyId};
-use crate::sqlite_direct::{execute, optional_row};
+use crate::store::answer_writer::{Batched, STORE_ANSWER};
+use crate::store::db::now_ms;
+use crate::store::ids::{AssignmentId, StudyId};
+use crate::store::sqlite_direct::{execute, optional_row};
 
 /// One answer as the worker sent it: looked up, checked and stored inside the writer's
 /// transaction.
@@ -104,8 +104,8 @@ fn submit_batch(conn: &Connection, submits: &[AnswerSubmit]) -> Result<Vec<Resul
             let threshold = match thresholds.get(&target.study) {
                 Some(&t) => t,
                 None => {
-                    let t =
-                        crate::study::settings_sqlite(conn, target.study)?.reject_at_control_errors;
+                    let t = crate::studies::study::settings_sqlite(conn, target.study)?
+                        .reject_at_control_errors;
                     thresholds.insert(target.study, t);
                     t
                 }
@@ -185,10 +185,10 @@ mod tests {
     use sqlx::Row;
 
     use super::*;
-    use crate::db::Db;
     use crate::flow::{self, AnswerRequest, Source, StartOutcome, StartRequest};
-    use crate::ids::ItemId;
-    use crate::study;
+    use crate::store::db::Db;
+    use crate::store::ids::ItemId;
+    use crate::studies::study;
 
     /// A fresh SQLite database with a study and `n` started HITs; returns the tokens and, per
     /// token, its questions as (position, b, c, ask_reasons).
@@ -202,7 +202,7 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let url = format!("sqlite://{}", dir.path().join("w.db").display());
         let db = Db::connect(&url, 4).await.expect("connect");
-        let id = crate::bench::prepare(&db, 4, 1).await.expect("study");
+        let id = crate::cli::bench::prepare(&db, 4, 1).await.expect("study");
         let study = study::load(&db, id).await.expect("load");
         let mut out = Vec::new();
         for w in 0..n {
@@ -284,7 +284,7 @@ mod tests {
             sub(t2, 1, q2[1].1, None),               // stored (b)
         ];
         // The batch on a connection of its own, as the writer thread runs it.
-        let conn = crate::sqlite_direct::open(&_dir.path().join("w.db")).expect("open");
+        let conn = crate::store::sqlite_direct::open(&_dir.path().join("w.db")).expect("open");
         execute(&conn, "BEGIN IMMEDIATE", &[]).expect("begin");
         let out = submit_batch(&conn, &batch).expect("batch");
         execute(&conn, "COMMIT", &[]).expect("commit");
