@@ -36,7 +36,7 @@ pub enum AppError {
     #[error("database error: {0}")]
     Database(#[from] sqlx::Error),
     /// A failure of the SQLite connection the answer writer drives directly
-    /// ([`crate::sqlite_direct`]); details are logged, not shown.
+    /// ([`crate::store::sqlite_direct`]); details are logged, not shown.
     #[error("database error: {0}")]
     Sqlite(#[from] rusqlite::Error),
     /// A migration failure.

@@ -8,7 +8,7 @@
 //!
 //! ```no_run
 //! # async fn demo() -> Result<(), platform::error::AppError> {
-//! let db = platform::db::Db::connect("sqlite://study.db", 8).await?;
+//! let db = platform::store::db::Db::connect("sqlite://study.db", 8).await?;
 //! let state = platform::AppState::new(db, "http://127.0.0.1:8080".into(), false, 65536);
 //! let listener = tokio::net::TcpListener::bind("127.0.0.1:8080").await.map_err(platform::error::AppError::internal)?;
 //! axum::serve(listener, platform::app(state)).await.map_err(platform::error::AppError::internal)?;
@@ -32,29 +32,16 @@ macro_rules! outln {
     }};
 }
 
-pub mod admin;
-pub mod answer_writer;
-pub mod api;
-pub mod assets;
-pub mod bench;
-pub mod bonus;
 pub mod cli;
-pub mod dashboard;
-pub mod db;
-pub mod demo;
 pub mod error;
-pub mod export;
-pub mod extract;
 pub mod flow;
-pub mod ids;
-pub mod library;
-pub mod markdown;
-pub mod pages;
-pub mod qc;
-pub mod sqlite_direct;
-pub mod study;
-pub mod study_edit;
-pub mod train;
+pub mod store;
+pub mod studies;
+pub mod time;
+pub mod web;
+
+use studies::library;
+use web::{api, assets, pages};
 
 /// Server-wide settings that are not in the database.
 #[derive(Debug, Clone)]
@@ -71,7 +58,7 @@ pub struct ServerSettings {
 #[derive(Debug, Clone)]
 pub struct AppState {
     /// The database.
-    pub db: db::Db,
+    pub db: store::db::Db,
     /// Settings.
     pub settings: Arc<ServerSettings>,
 }
@@ -79,7 +66,7 @@ pub struct AppState {
 impl AppState {
     /// Bundles a database and settings.
     pub fn new(
-        db: db::Db,
+        db: store::db::Db,
         public_url: String,
         secure_cookies: bool,
         max_body_bytes: usize,
@@ -161,7 +148,7 @@ async fn html_errors(req: axum::extract::Request, next: axum::middleware::Next) 
 /// whose creation stopped (the process writing their pool died) are marked failed and their
 /// rows deleted ([`study::watch`]).
 pub async fn serve(listener: tokio::net::TcpListener, state: AppState) -> std::io::Result<()> {
-    let watch = study::watch(state.db.clone());
+    let watch = studies::study::watch(state.db.clone());
     let served = serve_app(listener, state).await;
     watch.abort();
     served

@@ -3,8 +3,10 @@
 //! rejects the spammers, and `app(state)` serves the dashboard over real HTTP on
 //! `127.0.0.1:0`.
 
-use platform::db::Db;
-use platform::{AppState, dashboard, demo, export};
+use platform::AppState;
+use platform::cli::demo;
+use platform::store::db::Db;
+use platform::studies::{dashboard, export};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn demo_setup_simulation_and_dashboard() {

@@ -6,13 +6,18 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::db::{Db, redact};
+use crate::AppState;
 use crate::error::{AppError, Result};
-use crate::export::ExportOptions;
-use crate::ids::StudyId;
-use crate::study;
-use crate::train::{self, TrainOptions};
-use crate::{AppState, admin, bench, demo, export, library};
+use crate::store::db::{Db, redact};
+use crate::store::ids::StudyId;
+use crate::studies::export::ExportOptions;
+use crate::studies::study;
+use crate::studies::train::{self, TrainOptions};
+use crate::studies::{export, library};
+use crate::web::admin;
+
+pub mod bench;
+pub mod demo;
 
 mod study_command;
 pub use study_command::StudyCommand;

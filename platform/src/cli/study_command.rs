@@ -6,10 +6,10 @@ use clap::Subcommand;
 
 use super::DbArgs;
 use crate::error::{AppError, Result};
-use crate::ids::StudyId;
-use crate::study::{self, MturkMode, StudySettings};
-use crate::study_edit::{self, SettingsPatch};
-use crate::{dashboard, library};
+use crate::store::ids::StudyId;
+use crate::studies::study::{self, MturkMode, StudySettings};
+use crate::studies::study_edit::{self, SettingsPatch};
+use crate::studies::{dashboard, library};
 
 /// `platform study ...`.
 #[derive(Debug, Subcommand)]

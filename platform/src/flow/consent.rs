@@ -13,9 +13,9 @@ use super::{
     Assignment, Handback, NewAssignment, PROLIFIC_COMPLETE, StartOutcome, ensure_worker,
     existing_token,
 };
-use crate::db::Db;
 use crate::error::{AppError, Result};
-use crate::study::Study;
+use crate::store::db::Db;
+use crate::studies::study::Study;
 
 /// Records the consent answer `$1` (`agreed`/`declined`) to text version `$2` at `$3` of
 /// assignment `$4`.

@@ -8,9 +8,9 @@
 use sqlx::Row;
 
 use super::training;
-use crate::db::Db;
 use crate::error::Result;
-use crate::study::Study;
+use crate::store::db::Db;
+use crate::studies::study::Study;
 
 /// The questions of a HIT and of a training attempt started now.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -4,9 +4,9 @@
 use sqlx::Row;
 
 use super::Source;
-use crate::db::Db;
 use crate::error::Result;
-use crate::study::Study;
+use crate::store::db::Db;
+use crate::studies::study::Study;
 
 /// A worker's assignment in a study, as the start page describes it.
 #[derive(Debug, Clone)]

@@ -1,7 +1,7 @@
 //! The SQLite forms of the flow's writes that run as jobs of the answer writer
-//! ([`crate::answer_writer`]), on its connection and inside its transaction: a HIT start, a HIT
+//! ([`crate::store::answer_writer`]), on its connection and inside its transaction: a HIT start, a HIT
 //! allocation after training and a completion. Same statements as the sqlx forms in the parent
-//! module (shared text), driven directly ([`crate::sqlite_direct`]): one short prepared
+//! module (shared text), driven directly ([`crate::store::sqlite_direct`]): one short prepared
 //! statement per row instead of one multi-row statement per round trip, since a statement is
 //! a function call here and no longer a hand-off to sqlx's connection thread.
 
@@ -12,19 +12,19 @@ use super::{
     ACTIVATE, Allocated, Allocation, COMPLETE, INSERT_ASSIGNMENT, INSERT_WORKER, NewAssignment,
     SlotClaim, Source, WORKER_ID, check_unchanged, hit_questions,
 };
-use crate::db::now_ms;
 use crate::error::{AppError, Result};
-use crate::ids::{AssignmentId, WorkerId};
-use crate::qc;
-use crate::sqlite_direct::{execute, optional_row, rows};
-use crate::study::Study;
+use crate::flow::qc;
+use crate::store::db::now_ms;
+use crate::store::ids::{AssignmentId, WorkerId};
+use crate::store::sqlite_direct::{execute, optional_row, rows};
+use crate::studies::study::Study;
 
 impl Allocation {
     /// [`Allocation::run`] on the answer writer's connection, inside its savepoint.
     pub(super) fn run_sqlite(mut self, conn: &Connection) -> Result<Allocated> {
         check_unchanged(
             &self.study.settings,
-            &crate::study::settings_sqlite(conn, self.study.id)?,
+            &crate::studies::study::settings_sqlite(conn, self.study.id)?,
             Some(&self.external),
         )?;
         let worker = match self.known {
@@ -117,7 +117,7 @@ pub(super) fn allocate(
 ) -> Result<usize> {
     check_unchanged(
         &study.settings,
-        &crate::study::settings_sqlite(conn, study.id)?,
+        &crate::studies::study::settings_sqlite(conn, study.id)?,
         None,
     )?;
     if execute(conn, ACTIVATE, &[&assignment.0])? == 0 {
@@ -221,7 +221,7 @@ impl SlotClaim {
     }
 }
 
-/// [`super::complete_in`] on the answer writer's connection, inside its transaction.
+/// [`super::answers::complete_in`] on the answer writer's connection, inside its transaction.
 pub(crate) fn complete_in_sqlite(conn: &Connection, a: AssignmentId, threshold: u32) -> Result<()> {
     if execute(conn, COMPLETE, &[&now_ms(), &a.0])? == 1 {
         let errors = qc::control_errors_sqlite(conn, a)?;

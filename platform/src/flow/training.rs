@@ -14,10 +14,10 @@ use sqlx::Row;
 use utoipa::ToSchema;
 
 use super::{Assignment, QuestionView, mix, view};
-use crate::db::Db;
 use crate::error::Result;
-use crate::ids::{ItemId, StudyId, TupleId};
-use crate::study::Study;
+use crate::store::db::Db;
+use crate::store::ids::{ItemId, StudyId, TupleId};
+use crate::studies::study::Study;
 
 /// A training triplet: (tuple, a, b, c); the expected answer is `b`.
 pub(super) type TrainingTuple = (TupleId, i64, i64, i64);

@@ -1,0 +1,105 @@
+//! The HTML pages: the worker flow (start, training, questions, reasons, done) on top of the
+//! same [`crate::flow`] functions as the JSON API, and the admin pages (login, studies, upload,
+//! dashboard, quality control, exports). Askama escapes every value.
+
+use askama::Template;
+use axum::Router;
+use axum::extract::State;
+use axum::http::{StatusCode, header};
+use axum::response::{Html, IntoResponse, Redirect, Response};
+use axum::routing::get;
+
+use crate::AppState;
+use crate::error::{AppError, Result};
+use crate::store::ids::ItemId;
+use crate::studies::library;
+use crate::web::extract::ApiPath;
+
+mod admin_session;
+mod models;
+mod study_page;
+mod upload;
+mod worker;
+
+pub use upload::upload_handler;
+
+/// Worker and admin page routes.
+pub fn routes() -> Router<AppState> {
+    Router::new()
+        .route("/", get(home))
+        .route("/media/items/{file}", get(media))
+        .route("/static/{file}", get(crate::web::assets::serve))
+        .merge(worker::routes())
+        .merge(admin_session::routes())
+        .merge(study_page::routes())
+        .merge(models::routes())
+}
+
+pub(super) fn render(t: &impl Template) -> Result<Response> {
+    let html = t.render().map_err(AppError::internal)?;
+    Ok(Html(html).into_response())
+}
+
+#[derive(Template)]
+#[template(path = "message.html")]
+pub(super) struct MessagePage<'a> {
+    pub(super) title: &'a str,
+    pub(super) message: String,
+    pub(super) class: &'a str,
+}
+
+/// Renders an error as an HTML page with the error's status.
+fn error_page(e: AppError) -> Response {
+    if e.status().is_server_error() {
+        eprintln!("error: {e}");
+    }
+    status_page(e.status(), e.public_message())
+}
+
+/// An error page with `status` showing `message`; the admin login page instead of a 401.
+pub(crate) fn status_page(status: StatusCode, message: String) -> Response {
+    if status == StatusCode::UNAUTHORIZED {
+        return Redirect::to("/admin/login").into_response();
+    }
+    let page = MessagePage {
+        title: if status.is_server_error() {
+            "Something went wrong"
+        } else {
+            "Sorry"
+        },
+        message,
+        class: "error",
+    };
+    match page.render() {
+        Ok(html) => (status, Html(html)).into_response(),
+        Err(_) => (status, page.message).into_response(),
+    }
+}
+
+pub(super) fn page(r: Result<Response>) -> Response {
+    r.unwrap_or_else(error_page)
+}
+
+async fn home() -> Response {
+    page(render(&MessagePage {
+        title: "Style rating studies",
+        message: "Workers arrive through a study link; researchers log in at /admin.".into(),
+        class: "",
+    }))
+}
+
+async fn media(State(state): State<AppState>, ApiPath(file): ApiPath<String>) -> Result<Response> {
+    let id: ItemId = file
+        .strip_suffix(".png")
+        .and_then(|s| s.parse().ok())
+        .ok_or(AppError::NotFound("item"))?;
+    let png = library::item_png(&state.db, id).await?;
+    Ok((
+        [
+            (header::CONTENT_TYPE, "image/png"),
+            (header::CACHE_CONTROL, "public, max-age=86400, immutable"),
+        ],
+        png,
+    )
+        .into_response())
+}
