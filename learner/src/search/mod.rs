@@ -41,6 +41,7 @@ pub mod index;
 pub mod keywords;
 mod kmeans;
 pub mod params;
+mod query;
 #[cfg(test)]
 mod tests;
 pub mod texts;
@@ -56,6 +57,7 @@ pub use index::{StyleMatrix, Weighting};
 pub use keywords::{ItemText, KeywordIndex};
 pub use kmeans::KMeansInfo;
 pub use params::{DEFAULT_LIMIT, SearchParams};
+pub use query::{Hit, Order, Query, SearchResults};
 
 use crate::table::FeatureTable;
 use crate::{Error, Result};
@@ -114,80 +116,6 @@ pub enum BuildProgress {
         /// The iteration limit.
         max: usize,
     },
-}
-
-/// A search. Fields combine: keywords and a category restrict the candidates, references
-/// order them by style.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Query {
-    /// Words to match in names, tags and keywords (all of them, each exactly, as a prefix or
-    /// with a typo). `None`: no keyword restriction.
-    pub keywords: Option<String>,
-    /// Only items in this category (or its subcategories).
-    pub category: Option<String>,
-    /// Reference items by id: the canvas, or one item for "more like this". Results are
-    /// ordered by their mean distance to the references, and the references themselves are
-    /// left out.
-    pub near: Vec<String>,
-    /// Reference drawings by their raw features (all features, in the index's column order),
-    /// e.g. an uploaded example; they count like `near` items.
-    pub examples: Vec<Vec<f64>>,
-    /// Without references: deal the results across style clusters (§5.7.3's empty canvas)
-    /// instead of ordering by keyword relevance.
-    pub diverse: bool,
-    /// Results wanted.
-    pub limit: usize,
-}
-
-impl Default for Query {
-    fn default() -> Self {
-        Self {
-            keywords: None,
-            category: None,
-            near: Vec::new(),
-            examples: Vec::new(),
-            diverse: false,
-            limit: DEFAULT_LIMIT,
-        }
-    }
-}
-
-/// How results were ordered.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Order {
-    /// By mean distance to the references.
-    Style,
-    /// Dealt across style clusters.
-    Diversity,
-    /// By keyword score (BM25), then item order.
-    Relevance,
-}
-
-/// One result.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Hit {
-    /// The item's id.
-    pub id: String,
-    /// Its row in the index.
-    pub row: u32,
-    /// Mean distance `d` (eq. 5.5) to the references, when there are references.
-    pub distance: Option<f64>,
-    /// Keyword score, when the query has keywords.
-    pub score: Option<f32>,
-    /// Its clusters, in the diversity order.
-    pub cluster: Option<ClusterId>,
-}
-
-/// The answer to a [`Query`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SearchResults {
-    /// How they are ordered.
-    pub order: Order,
-    /// Items that matched the keywords and category (all items without either).
-    pub matched: usize,
-    /// The first `limit` results, in the order a user sees them.
-    pub hits: Vec<Hit>,
 }
 
 impl SearchIndex {
@@ -324,27 +252,8 @@ impl SearchIndex {
 
     /// Answers a query.
     pub fn search(&self, query: &Query) -> Result<SearchResults> {
-        if query.limit == 0 {
-            return Err(Error::InvalidParameter {
-                name: "limit",
-                value: "0".into(),
-                reason: "ask for at least one result",
-            });
-        }
+        query.validate()?;
         let has_refs = !query.near.is_empty() || !query.examples.is_empty();
-        if query.diverse && has_refs {
-            return Err(Error::InvalidParameter {
-                name: "diverse",
-                value: "with reference items".into(),
-                reason: "the diversity order is for an empty canvas; references order by style",
-            });
-        }
-        if query.keywords.is_none() && query.category.is_none() && !has_refs && !query.diverse {
-            return Err(Error::EmptyQuery(
-                "give keywords, a category, reference items or an example, or ask for the \
-                 diversity order",
-            ));
-        }
         let mut exclude = Vec::with_capacity(query.near.len());
         let mut references = Vec::with_capacity(query.near.len() + query.examples.len());
         for id in &query.near {
