@@ -378,24 +378,48 @@ crate::simd::vectorised_fn! {
     /// Squared Euclidean distance from `q` to each row of `rows` (rows of `q.len()` floats, a
     /// multiple of [`LANES`]), into `out`.
     pub(crate) fn squared_distances<'a>(rows: &'a [f32], q: &'a [f32], out: &'a mut [f32]) -> () {
+        // Two passes over groups of rows: the lane sums of each row are stored, then reduced.
+        // Reducing each row's sums right away made LLVM's SLP vectoriser grow its tree from the
+        // reduction's 2-wide last step up into the loop, which then ran on `xmm` pairs of
+        // lanes; spilling them with a barrier instead stalled on store-to-load forwarding.
+        // Either cost ~3x the scan (perf on `learner bench search`). The arithmetic, hence
+        // every bit of the result, is the same.
         let stride = q.len();
-        for (row, o) in rows.chunks_exact(stride).zip(out.iter_mut()) {
-            *o = squared_l2(row, q);
+        let mut sums = [[0.0f32; LANES]; GROUP];
+        for (rows, out) in rows.chunks(stride * GROUP).zip(out.chunks_mut(GROUP)) {
+            for (row, s) in rows.chunks_exact(stride).zip(sums.iter_mut()) {
+                *s = lane_sums(row, q);
+            }
+            for (s, o) in sums.iter().zip(out.iter_mut()) {
+                *o = reduce_lanes(s);
+            }
         }
     }
 }
 
-/// `‖a − b‖²` over rows padded to [`LANES`]: [`LANES`] independent partial sums, added up in a
-/// fixed order, so the result is the same on every vector width.
+/// Rows per group of [`squared_distances`].
+const GROUP: usize = 64;
+
+/// The [`LANES`] partial sums of `(a − b)²` over rows padded to [`LANES`], lane `l` over
+/// elements `l`, `l + LANES`, …; with [`reduce_lanes`], `‖a − b‖²` in an order that does not
+/// depend on the vector width, so every path gives the same bits.
 #[inline(always)]
-pub(crate) fn squared_l2(a: &[f32], b: &[f32]) -> f32 {
+fn lane_sums(a: &[f32], b: &[f32]) -> [f32; LANES] {
     let mut acc = [0.0f32; LANES];
-    for (x, y) in a.chunks_exact(LANES).zip(b.chunks_exact(LANES)) {
+    let (a, _) = a.as_chunks::<LANES>();
+    let (b, _) = b.as_chunks::<LANES>();
+    for (x, y) in a.iter().zip(b) {
         for l in 0..LANES {
             let d = x[l] - y[l];
             acc[l] += d * d;
         }
     }
+    acc
+}
+
+/// The partial sums added up in a fixed tree order.
+#[inline(always)]
+fn reduce_lanes(acc: &[f32; LANES]) -> f32 {
     let mut half = [0.0f32; LANES / 2];
     for l in 0..LANES / 2 {
         half[l] = acc[l] + acc[l + LANES / 2];
