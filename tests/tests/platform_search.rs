@@ -232,6 +232,8 @@ async fn search_a_library(db: TestDb) {
         ("library=clipart&model=abc", 400, "model"),
         ("library=clipart&model=12345", 404, "model"),
         ("library=clipart&q=%21%21%21", 400, "word"),
+        ("library=clip%00art&q=dog", 400, "control characters"),
+        ("library=clipart&q=do%00g", 400, "control characters"),
     ] {
         let (got, body) = get(query.into()).await;
         assert_eq!(got, status, "{query}: {body}");

@@ -33,6 +33,7 @@ pub const DEFAULT_LIMIT: u32 = 48;
 #[into_params(parameter_in = Query)]
 pub struct SearchRequest {
     /// The library (its name).
+    #[param(max_length = 200)]
     pub library: String,
     /// `uniform`, a model id, or omitted: the newest trained model of a study over the
     /// library, uniform weights when there is none.
@@ -117,6 +118,21 @@ pub async fn run(state: &AppState, req: &SearchRequest) -> Result<SearchAnswer> 
             Some(v) => Ok(Some(v.to_string())),
         }
     };
+    // Control characters are refused before anything reaches the database (PostgreSQL
+    // rejects a NUL in text) or the keyword parser.
+    for (name, value) in [
+        ("library", Some(&req.library)),
+        ("model", req.model.as_ref()),
+        ("q", req.q.as_ref()),
+        ("category", req.category.as_ref()),
+        ("near", req.near.as_ref()),
+    ] {
+        if value.is_some_and(|v| v.chars().any(char::is_control)) {
+            return Err(AppError::BadRequest(format!(
+                "{name}: control characters are not allowed"
+            )));
+        }
+    }
     let keywords = text("q", &req.q)?;
     let category = text("category", &req.category)?;
     let limit = req.limit.unwrap_or(DEFAULT_LIMIT);
@@ -136,6 +152,11 @@ pub async fn run(state: &AppState, req: &SearchRequest) -> Result<SearchAnswer> 
     };
     if req.library.trim().is_empty() {
         return Err(AppError::BadRequest("library: required".into()));
+    }
+    if req.library.chars().count() > MAX_TEXT_CHARS {
+        return Err(AppError::BadRequest(format!(
+            "library: at most {MAX_TEXT_CHARS} characters"
+        )));
     }
 
     let db = &state.db;
