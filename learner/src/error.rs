@@ -154,6 +154,45 @@ pub enum Error {
         /// The OS error.
         source: std::io::Error,
     },
+    /// A search has nothing to search for: an empty keyword query, or no keywords, items,
+    /// example or diversity request at all.
+    #[error("empty query: {0}")]
+    EmptyQuery(&'static str),
+    /// A query names an item that is not in the library.
+    #[error("unknown item '{id}' (not among the {items} items of the library)")]
+    UnknownItem {
+        /// The id as given.
+        id: String,
+        /// How many items the library has.
+        items: usize,
+    },
+    /// A library to search has no items with features.
+    #[error("the library has no items with features")]
+    EmptyLibrary,
+    /// A feature vector given to the search has the wrong length.
+    #[error("query vector has {got} values, the index expects {expected}")]
+    QueryDimension {
+        /// The index's number of features.
+        expected: usize,
+        /// The query's.
+        got: usize,
+    },
+    /// The keyword engine (tantivy) failed.
+    #[error("keyword index: {what}: {message}")]
+    Keywords {
+        /// What was being done.
+        what: &'static str,
+        /// tantivy's message.
+        message: String,
+    },
+    /// A search index file is not one this version wrote, or is damaged.
+    #[error("{path}: not a usable search index ({reason})")]
+    InvalidIndex {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
 }
 
 /// `Result` with this crate's [`Error`].

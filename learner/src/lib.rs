@@ -24,6 +24,7 @@ pub mod mask;
 pub mod metric;
 pub mod plane;
 pub mod render;
+pub mod search;
 mod simd;
 pub mod table;
 pub mod triplets;

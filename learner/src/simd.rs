@@ -71,7 +71,7 @@ macro_rules! vectorised_fn {
 pub(crate) use vectorised_fn;
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use std::cell::Cell;
     use std::path::Path;
 
@@ -81,7 +81,8 @@ mod tests {
         pub(super) static BASELINE_ONLY: Cell<bool> = const { Cell::new(false) };
     }
 
-    fn baseline_only<R>(f: impl FnOnce() -> R) -> R {
+    /// Runs `f` with every vectorised function on its baseline x86-64 path.
+    pub(crate) fn baseline_only<R>(f: impl FnOnce() -> R) -> R {
         BASELINE_ONLY.with(|flag| flag.set(true));
         let result = f();
         BASELINE_ONLY.with(|flag| flag.set(false));

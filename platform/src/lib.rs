@@ -35,6 +35,7 @@ macro_rules! outln {
 pub mod cli;
 pub mod error;
 pub mod flow;
+pub mod search;
 pub mod store;
 pub mod studies;
 pub mod time;
@@ -61,6 +62,8 @@ pub struct AppState {
     pub db: store::db::Db,
     /// Settings.
     pub settings: Arc<ServerSettings>,
+    /// Built style-search indexes (a cache; rebuilt from the database when missing).
+    pub search: Arc<search::IndexCache>,
 }
 
 impl AppState {
@@ -78,6 +81,7 @@ impl AppState {
                 secure_cookies,
                 max_body_bytes,
             }),
+            search: Arc::default(),
         }
     }
 }

@@ -342,6 +342,11 @@ async fn train_from_answers(db: TestDb) {
         &cookie,
     )
     .await;
+    let mut names_ids: Vec<(String, i64)> = item_features
+        .iter()
+        .map(|(id, name, _)| (name.clone(), *id))
+        .collect();
+    names_ids.sort();
     let features: HashMap<String, Vec<f64>> = item_features
         .into_iter()
         .map(|(_, name, f)| (name, f))
@@ -367,6 +372,40 @@ async fn train_from_answers(db: TestDb) {
     );
     let held_out = model["cv_accuracy"].as_f64().expect("held-out accuracy");
     assert!(held_out > 0.65, "held-out {held_out}");
+
+    // Style search over the study's library now uses this model (issue 17): "more like this"
+    // is ordered by d(x, y) = √Σ w_k ((x_k − y_k) / s_k)² (eq. 5.5) with the stored weights.
+    let (status, found) = send(
+        c.get(format!(
+            "{base}/api/v1/admin/search?library=fx&near={}&limit=200",
+            names_ids[0].1
+        ))
+        .header("cookie", &cookie),
+    )
+    .await;
+    assert_eq!(status, 200, "{found}");
+    assert_eq!(found["model"].as_i64(), Some(model_id), "{found}");
+    assert_eq!(found["uniform"], false);
+    let w: Vec<f64> = serde_json::from_value(model_json["weights"].clone()).expect("weights");
+    let s: Vec<f64> = serde_json::from_value(model_json["scale"].clone()).expect("scale");
+    let reference = &features[&names_ids[0].0];
+    let hits = found["results"].as_array().expect("results");
+    assert_eq!(hits.len(), features.len() - 1);
+    let mut last = 0.0;
+    for hit in hits {
+        let x = &features[hit["name"].as_str().expect("name")];
+        let want = (0..w.len())
+            .map(|k| w[k] * ((x[k] - reference[k]) / s[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let got = hit["distance"].as_f64().expect("distance");
+        assert!(
+            (got - want).abs() <= 1e-4 * want.max(1.0),
+            "{got} vs {want}"
+        );
+        assert!(got >= last - 1e-6, "not nearest first");
+        last = got;
+    }
 
     // The dashboard lists it with its report link.
     let page = admin_text(&c, &format!("{base}/admin/studies/{study}"), &cookie).await;

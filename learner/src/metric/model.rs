@@ -126,27 +126,34 @@ pub fn standardise(table: &FeatureTable, mean: &[f64], scale: &[f64]) -> Standar
 impl Model {
     /// Checks that `table` has exactly the model's feature columns, then standardises it.
     pub fn standardise(&self, table: &FeatureTable) -> Result<Standardised> {
-        if table.names() != self.feature_names.as_slice() {
-            let message = if table.dim() != self.feature_names.len() {
-                format!(
-                    "model has {} features, file has {}",
-                    self.feature_names.len(),
-                    table.dim()
-                )
-            } else {
-                let k = (0..table.dim())
-                    .find(|&k| table.names()[k] != self.feature_names[k])
-                    .unwrap_or(0);
-                format!(
-                    "column {} is `{}` in the file but `{}` in the model",
-                    k + 2,
-                    table.names()[k],
-                    self.feature_names[k]
-                )
-            };
-            return Err(Error::FeatureMismatch { message });
-        }
+        self.check_columns(table.names())?;
         Ok(standardise(table, &self.mean, &self.scale))
+    }
+
+    /// Fails with [`Error::FeatureMismatch`], naming the first difference, unless `names` are
+    /// exactly the model's feature columns in order.
+    pub fn check_columns(&self, names: &[String]) -> Result<()> {
+        if names == self.feature_names.as_slice() {
+            return Ok(());
+        }
+        let message = if names.len() != self.feature_names.len() {
+            format!(
+                "model has {} features, file has {}",
+                self.feature_names.len(),
+                names.len()
+            )
+        } else {
+            let k = (0..names.len())
+                .find(|&k| names[k] != self.feature_names[k])
+                .unwrap_or(0);
+            format!(
+                "column {} is `{}` in the file but `{}` in the model",
+                k + 2,
+                names[k],
+                self.feature_names[k]
+            )
+        };
+        Err(Error::FeatureMismatch { message })
     }
 
     /// The learned distance (eq. 5.5) between two raw feature vectors.

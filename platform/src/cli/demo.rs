@@ -377,6 +377,7 @@ pub async fn run(args: DemoArgs) -> Result<()> {
         "worker link: {base}/s/{}?participant=demo-worker-1",
         study.id
     )?;
+    outln!("style search (after login): {base}/admin/search?library={DEMO_LIBRARY}")?;
     outln!(
         "MTurk sandbox test: {base}/s/{}?assignmentId=A1&hitId=H1&workerId=W1&turkSubmitTo=https://workersandbox.mturk.com",
         study.id

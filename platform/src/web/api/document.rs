@@ -9,7 +9,7 @@ use utoipa::openapi::security::{ApiKey, ApiKeyValue, SecurityRequirement, Securi
 use utoipa::openapi::{ContentBuilder, Ref, RefOr, ResponseBuilder};
 use utoipa::{Modify, OpenApi};
 
-use super::{OkBody, admin, models, quality, schema, settings, worker, workers};
+use super::{OkBody, admin, models, quality, schema, search, settings, worker, workers};
 use crate::error::ErrorBody;
 
 /// The OpenAPI document.
@@ -40,6 +40,7 @@ use crate::error::ErrorBody;
         quality::admin_release,
         models::admin_models,
         models::admin_train,
+        search::admin_search,
         settings::admin_settings,
         settings::admin_edit_settings,
         settings::admin_settings_changes,

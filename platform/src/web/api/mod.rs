@@ -24,6 +24,7 @@ mod document;
 mod models;
 pub mod quality;
 pub mod schema;
+mod search;
 mod settings;
 mod worker;
 mod workers;
@@ -90,6 +91,7 @@ pub fn routes() -> Router<AppState> {
             "/api/v1/admin/studies/{study}/settings/changes",
             get(admin_settings_changes),
         )
+        .route("/api/v1/admin/search", get(search::admin_search))
         .merge(workers::routes())
 }
 

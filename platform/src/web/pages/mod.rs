@@ -17,6 +17,7 @@ use crate::web::extract::ApiPath;
 
 mod admin_session;
 mod models;
+mod search;
 mod study_page;
 mod upload;
 mod worker;
@@ -33,6 +34,7 @@ pub fn routes() -> Router<AppState> {
         .merge(admin_session::routes())
         .merge(study_page::routes())
         .merge(models::routes())
+        .merge(search::routes())
 }
 
 pub(super) fn render(t: &impl Template) -> Result<Response> {
