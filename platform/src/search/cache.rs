@@ -2,6 +2,7 @@
 //! gained items. A cache only: every index can be rebuilt from the database, so servers can
 //! still be killed or multiplied.
 
+use std::collections::HashMap;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -38,6 +39,8 @@ pub struct Built {
     pub index: SearchIndex,
     /// Item ids, by row of the index.
     pub ids: Vec<ItemId>,
+    /// The row of each item id (the inverse of `ids`).
+    rows: HashMap<ItemId, usize>,
     /// Style labels, by row.
     pub styles: Vec<Option<String>>,
     /// The distinct style labels (the category facet), sorted.
@@ -50,7 +53,7 @@ pub struct Built {
 impl Built {
     /// The row of an item of this library.
     pub fn row_of(&self, id: ItemId) -> Option<usize> {
-        self.ids.iter().position(|&x| x == id)
+        self.rows.get(&id).copied()
     }
 }
 
@@ -111,6 +114,12 @@ impl IndexCache {
                 key,
                 version,
                 index,
+                rows: items
+                    .ids
+                    .iter()
+                    .enumerate()
+                    .map(|(row, &id)| (id, row))
+                    .collect(),
                 ids: items.ids,
                 styles: items.styles,
                 categories,

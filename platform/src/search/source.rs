@@ -43,16 +43,6 @@ pub async fn library_by_name(db: &Db, name: &str) -> Result<LibraryId> {
     Ok(LibraryId(row.try_get("id")?))
 }
 
-/// The names of every library, sorted.
-pub async fn library_names(db: &Db) -> Result<Vec<String>> {
-    sqlx::query("SELECT name FROM libraries ORDER BY name")
-        .fetch_all(&db.pool)
-        .await?
-        .iter()
-        .map(|r| r.try_get("name").map_err(AppError::from))
-        .collect()
-}
-
 /// The current [`LibraryVersion`] of a library (one indexed aggregate).
 pub async fn version(db: &Db, library: LibraryId) -> Result<LibraryVersion> {
     let row = sqlx::query(

@@ -78,6 +78,16 @@ pub async fn ensure_existing(db: &Db, name: &str) -> Result<LibraryId> {
     Ok(LibraryId(row.try_get("id")?))
 }
 
+/// The names of every library, sorted.
+pub async fn library_names(db: &Db) -> Result<Vec<String>> {
+    sqlx::query("SELECT name FROM libraries ORDER BY name")
+        .fetch_all(&db.pool)
+        .await?
+        .iter()
+        .map(|r| r.try_get("name").map_err(AppError::from))
+        .collect()
+}
+
 /// A rendered item ready to store.
 #[derive(Debug, Clone)]
 pub struct NewItem {

@@ -158,13 +158,7 @@ async fn admin_index(
                     },
                 })
                 .collect();
-            let rows = sqlx::query("SELECT name FROM libraries ORDER BY name")
-                .fetch_all(&state.db.pool)
-                .await?;
-            let libraries = rows
-                .iter()
-                .map(|r| sqlx::Row::try_get(r, "name"))
-                .collect::<std::result::Result<_, _>>()?;
+            let libraries = crate::studies::library::library_names(&state.db).await?;
             render(&AdminIndex {
                 username: admin.username,
                 csrf: admin.csrf,

@@ -12,7 +12,8 @@ use serde::Deserialize;
 use super::{page, render};
 use crate::AppState;
 use crate::error::AppError;
-use crate::search::{self, SearchAnswer, SearchOrder, SearchRequest, source};
+use crate::search::{self, SearchAnswer, SearchOrder, SearchRequest};
+use crate::studies::library;
 use crate::web::admin::Admin;
 use crate::web::extract::ApiQuery;
 
@@ -81,7 +82,7 @@ async fn search_page(
         async {
             admin?;
             let ApiQuery(form) = form?;
-            let names = source::library_names(&state.db).await?;
+            let names = library::library_names(&state.db).await?;
             let library = form
                 .library
                 .clone()
