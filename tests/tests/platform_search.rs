@@ -251,6 +251,18 @@ async fn search_a_library(db: TestDb) {
     assert!(html.contains("More like this"));
     let html = admin_text(
         &c,
+        &format!("{base}/admin/search?library=clipart&near={reference}"),
+        &cookie,
+    )
+    .await;
+    assert!(
+        html.contains(&format!(
+            "<p id=\"references\">More like <img src=\"/media/items/{reference}.png\""
+        )),
+        "the page shows what the results are like"
+    );
+    let html = admin_text(
+        &c,
         &format!("{base}/admin/search?library=clipart&q=dog&near=999"),
         &cookie,
     )

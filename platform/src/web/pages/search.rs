@@ -58,6 +58,8 @@ struct SearchPage {
     categories: Vec<Choice>,
     q: String,
     near: String,
+    /// Images of the reference items of a "more like this" search.
+    references: Vec<String>,
     error: Option<String>,
     summary: Option<String>,
     uniform: bool,
@@ -95,6 +97,7 @@ async fn search_page(
                     categories: Vec::new(),
                     q: String::new(),
                     near: String::new(),
+                    references: Vec::new(),
                     error: Some(
                         "There is no library yet: import one with `platform library import` or \
                          upload items on the studies page."
@@ -172,6 +175,7 @@ fn page_of(
             categories,
             q,
             near,
+            references: Vec::new(),
             error,
             summary: None,
             uniform: false,
@@ -232,12 +236,20 @@ fn page_of(
             ]),
         })
         .collect();
+    // The search succeeded, so every id in `near` is an item of the library.
+    let references = near
+        .split(',')
+        .map(str::trim)
+        .filter(|id| !id.is_empty())
+        .map(|id| format!("/media/items/{id}.png"))
+        .collect();
     SearchPage {
         libraries,
         models,
         categories,
         q,
         near,
+        references,
         error,
         summary: Some(summary),
         uniform: answer.uniform,
