@@ -210,7 +210,7 @@ pub async fn run(a: SearchBenchArgs) -> Result<()> {
         a.requests
     )?;
     outln!(
-        "\n{:<58} {:>7} {:>7} {:>7} {:>9} {:>6}",
+        "\n{:<66} {:>7} {:>7} {:>7} {:>10} {:>6}",
         "path",
         "p50 ms",
         "p95 ms",
@@ -220,7 +220,7 @@ pub async fn run(a: SearchBenchArgs) -> Result<()> {
     )?;
     let row = |name: String, t: &Timed| {
         outln!(
-            "{name:<58} {:>7.2} {:>7.2} {:>7.2} {:>9.0} {:>6}",
+            "{name:<66} {:>7.2} {:>7.2} {:>7.2} {:>10.0} {:>6}",
             quantile(&t.lat, 0.5),
             quantile(&t.lat, 0.95),
             quantile(&t.lat, 0.99),
