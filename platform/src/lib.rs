@@ -100,11 +100,15 @@ pub fn app(state: AppState) -> Router {
             axum::routing::post(pages::upload_handler),
         )
         .layer(DefaultBodyLimit::max(MAX_UPLOAD_REQUEST));
+    let example = api::example_routes()
+        .merge(pages::example_routes())
+        .layer(DefaultBodyLimit::max(search::example::MAX_EXAMPLE_REQUEST));
     Router::new()
         .merge(api::routes())
         .merge(pages::routes())
         .layer(DefaultBodyLimit::max(limit))
         .merge(upload)
+        .merge(example)
         .route("/favicon.ico", axum::routing::get(assets::favicon))
         .fallback(|| async { error::AppError::NotFound("page") })
         .layer(axum::middleware::from_fn(html_errors))

@@ -67,10 +67,22 @@ impl IndexCache {
     /// The index for `key`, built (once, however many requests ask at the same time) when
     /// missing or older than the library.
     pub async fn get(&self, db: &Db, key: Key) -> Result<Arc<Built>> {
-        let version = source::version(db, key.library).await?;
+        // Every search asks: the cached index, if nothing was imported since its build (one
+        // short index read, not a count of the whole library).
+        let cached = {
+            let entries = self.entries.lock().await;
+            entries.iter().find(|e| e.key == key).cloned()
+        };
+        if let Some(e) = cached
+            && source::unchanged(db, key.library, &e.version).await?
+        {
+            e.last_used.store(now_ms() as u64, Ordering::Relaxed);
+            return Ok(e);
+        }
         // Held across the build: a second request for the same index waits for this one
         // instead of building it again (builds are rare: once per library change and model).
         let mut entries = self.entries.lock().await;
+        let version = source::version(db, key.library).await?;
         if let Some(e) = entries
             .iter()
             .find(|e| e.key == key && e.version == version)

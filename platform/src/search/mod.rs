@@ -6,6 +6,7 @@
 //! and names the results.
 
 pub mod cache;
+pub mod example;
 pub mod source;
 
 use learner::search::{Order, Query};
@@ -109,6 +110,17 @@ enum ModelWanted {
 
 /// Checks `req` and runs it.
 pub async fn run(state: &AppState, req: &SearchRequest) -> Result<SearchAnswer> {
+    run_with_examples(state, req, Vec::new()).await
+}
+
+/// [`run`], with the features of drawings that are not in the library (an upload, see
+/// [`example`]) among the references: results are then ordered by mean style distance to them
+/// and to the `near` items.
+pub async fn run_with_examples(
+    state: &AppState,
+    req: &SearchRequest,
+    examples: Vec<Vec<f64>>,
+) -> Result<SearchAnswer> {
     let text = |name: &str, value: &Option<String>| -> Result<Option<String>> {
         match value.as_deref().map(str::trim) {
             None | Some("") => Ok(None),
@@ -182,12 +194,12 @@ pub async fn run(state: &AppState, req: &SearchRequest) -> Result<SearchAnswer> 
                 })
         })
         .collect::<Result<Vec<_>>>()?;
-    let diverse = near_names.is_empty();
+    let diverse = near_names.is_empty() && examples.is_empty();
     let query = Query {
         keywords,
         category,
         near: near_names,
-        examples: Vec::new(),
+        examples,
         diverse,
         limit: limit as usize,
     };

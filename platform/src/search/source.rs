@@ -31,6 +31,8 @@ pub struct LibraryVersion {
     pub items: i64,
     /// The largest import sequence number (items are only added).
     pub last_seq: i64,
+    /// Items at `last_seq` (normally one; two imports at the same moment can share it).
+    pub at_last: i64,
 }
 
 /// The library named `name`.
@@ -43,7 +45,7 @@ pub async fn library_by_name(db: &Db, name: &str) -> Result<LibraryId> {
     Ok(LibraryId(row.try_get("id")?))
 }
 
-/// The current [`LibraryVersion`] of a library (one indexed aggregate).
+/// The current [`LibraryVersion`] of a library (a read of the whole library's index).
 pub async fn version(db: &Db, library: LibraryId) -> Result<LibraryVersion> {
     let row = sqlx::query(
         "SELECT COUNT(*) AS n, COALESCE(MAX(seq), -1) AS last FROM items WHERE library_id = $1",
@@ -51,10 +53,34 @@ pub async fn version(db: &Db, library: LibraryId) -> Result<LibraryVersion> {
     .bind(library.0)
     .fetch_one(&db.pool)
     .await?;
+    let (items, last_seq): (i64, i64) = (row.try_get("n")?, row.try_get("last")?);
+    let at_last = tail(db, library, last_seq).await?.0;
     Ok(LibraryVersion {
-        items: row.try_get("n")?,
-        last_seq: row.try_get("last")?,
+        items,
+        last_seq,
+        at_last,
     })
+}
+
+/// Whether the library is still at `known`: no item has been imported since (items are only
+/// added, each at a sequence number at least the largest so far). One short range read of the
+/// `(library_id, seq)` index, whatever the library's size, so every search can afford it.
+pub async fn unchanged(db: &Db, library: LibraryId, known: &LibraryVersion) -> Result<bool> {
+    let (n, last) = tail(db, library, known.last_seq).await?;
+    Ok(n == known.at_last && last == known.last_seq)
+}
+
+/// Items at or after sequence number `from`, and the largest sequence number among them.
+async fn tail(db: &Db, library: LibraryId, from: i64) -> Result<(i64, i64)> {
+    let row = sqlx::query(
+        "SELECT COUNT(*) AS n, COALESCE(MAX(seq), -1) AS last FROM items \
+         WHERE library_id = $1 AND seq >= $2",
+    )
+    .bind(library.0)
+    .bind(from)
+    .fetch_one(&db.pool)
+    .await?;
+    Ok((row.try_get("n")?, row.try_get("last")?))
 }
 
 /// Reads every item of a library for indexing.

@@ -41,6 +41,7 @@ use crate::error::ErrorBody;
         models::admin_models,
         models::admin_train,
         search::admin_search,
+        search::admin_search_example,
         settings::admin_settings,
         settings::admin_edit_settings,
         settings::admin_settings_changes,

@@ -24,13 +24,22 @@ mod document;
 mod models;
 pub mod quality;
 pub mod schema;
-mod search;
+pub(crate) mod search;
 mod settings;
 mod worker;
 mod workers;
 
 pub use admin::export_file;
 pub use document::ApiDoc;
+
+/// The JSON routes that take an uploaded drawing (mounted by [`crate::app`] with their own
+/// body limit, [`crate::search::example::MAX_EXAMPLE_REQUEST`]).
+pub fn example_routes() -> Router<AppState> {
+    Router::new().route(
+        "/api/v1/admin/search/example",
+        post(search::admin_search_example),
+    )
+}
 
 /// The worker and admin JSON routes.
 pub fn routes() -> Router<AppState> {

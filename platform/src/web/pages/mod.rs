@@ -18,10 +18,12 @@ use crate::web::extract::ApiPath;
 mod admin_session;
 mod models;
 mod search;
+mod search_example;
 mod study_page;
 mod upload;
 mod worker;
 
+pub use search_example::example_routes;
 pub use upload::upload_handler;
 
 /// Worker and admin page routes.

@@ -24,13 +24,13 @@ pub(super) fn routes() -> Router<AppState> {
 
 /// The form as the browser sends it (every field optional; the first library by default).
 #[derive(Debug, Default, Deserialize)]
-struct SearchForm {
-    library: Option<String>,
-    model: Option<String>,
-    q: Option<String>,
-    category: Option<String>,
-    near: Option<String>,
-    limit: Option<u32>,
+pub(super) struct SearchForm {
+    pub library: Option<String>,
+    pub model: Option<String>,
+    pub q: Option<String>,
+    pub category: Option<String>,
+    pub near: Option<String>,
+    pub limit: Option<u32>,
 }
 
 /// One thumbnail.
@@ -52,7 +52,15 @@ struct Choice {
 
 #[derive(Template)]
 #[template(path = "search.html")]
-struct SearchPage {
+pub(super) struct SearchPage {
+    /// The library searched (the upload form's hidden field).
+    library: String,
+    /// The metric chosen (the upload form's hidden field).
+    model: String,
+    /// The session's CSRF token (the upload form posts).
+    pub csrf: String,
+    /// An uploaded drawing the results are ordered by: its name and a `data:` PNG thumbnail.
+    pub example: Option<(String, String)>,
     libraries: Vec<Choice>,
     models: Vec<Choice>,
     categories: Vec<Choice>,
@@ -82,7 +90,7 @@ async fn search_page(
 ) -> Response {
     page(
         async {
-            admin?;
+            let admin = admin?;
             let ApiQuery(form) = form?;
             let names = library::library_names(&state.db).await?;
             let library = form
@@ -92,6 +100,10 @@ async fn search_page(
                 .or_else(|| names.first().cloned());
             let Some(library) = library else {
                 return render(&SearchPage {
+                    library: String::new(),
+                    model: String::new(),
+                    csrf: admin.csrf,
+                    example: None,
                     libraries: Vec::new(),
                     models: Vec::new(),
                     categories: Vec::new(),
@@ -127,15 +139,16 @@ async fn search_page(
             };
             let model = form.model.clone().unwrap_or_default();
             let category = form.category.clone().unwrap_or_default();
-            render(&page_of(
-                &library, &names, &model, &category, &form, answer, error,
-            ))
+            let mut page = page_of(&library, &names, &model, &category, &form, answer, error);
+            page.csrf = admin.csrf;
+            render(&page)
         }
         .await,
     )
 }
 
-fn page_of(
+/// The page for a search's answer (or its error); `csrf` and `example` are left empty.
+pub(super) fn page_of(
     library: &str,
     names: &[String],
     model: &str,
@@ -170,6 +183,10 @@ fn page_of(
     let near = form.near.clone().unwrap_or_default();
     let Some(answer) = answer else {
         return SearchPage {
+            library: library.into(),
+            model: model.into(),
+            csrf: String::new(),
+            example: None,
             libraries,
             models,
             categories,
@@ -244,6 +261,10 @@ fn page_of(
         .map(|id| format!("/media/items/{id}.png"))
         .collect();
     SearchPage {
+        library: library.into(),
+        model: model.into(),
+        csrf: String::new(),
+        example: None,
         libraries,
         models,
         categories,

@@ -9,23 +9,24 @@
 //! split on anything that is not a letter or digit, lower-cased and folded to ASCII, in the
 //! index and in queries alike. Documents carry no stored fields: a fast field holds each item's
 //! row, everything else lives in the style index.
+//!
+//! * `text`: [`ItemText`] and the analyser; `collect`: the collector of every match.
+
+mod collect;
+mod text;
 
 use std::path::Path;
 
-use tantivy::collector::{Collector, SegmentCollector};
-use tantivy::columnar::Column;
 use tantivy::query::{BooleanQuery, BoostQuery, FuzzyTermQuery, Occur, Query, TermQuery};
 use tantivy::schema::{
-    FAST, Facet, FacetOptions, Field, IndexRecordOption, Schema, TextFieldIndexing, TextOptions,
+    FAST, FacetOptions, Field, IndexRecordOption, Schema, TextFieldIndexing, TextOptions,
 };
-use tantivy::tokenizer::{
-    AsciiFoldingFilter, LowerCaser, RemoveLongFilter, SimpleTokenizer, TextAnalyzer,
-};
-use tantivy::{
-    DocId, Index, IndexReader, ReloadPolicy, Score, SegmentReader, TantivyDocument, Term,
-};
+use tantivy::{Index, IndexReader, ReloadPolicy, TantivyDocument, Term};
 
 use crate::{Error, Result};
+use collect::AllHits;
+pub use text::{ItemText, name_from_id, words};
+use text::{analyser, facet};
 
 /// The analyser's name in the tantivy index.
 const TOKENIZER: &str = "stylekit";
@@ -37,47 +38,6 @@ const PREFIX_SCORE: f32 = 0.5;
 const FUZZY_SCORE: f32 = 0.3;
 /// The name's weight against tags and keywords.
 const NAME_BOOST: f32 = 2.0;
-
-/// The text of one item.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct ItemText {
-    /// Its name (by default the id's words: `noto/dog-face.svg` → `noto dog face`).
-    pub name: String,
-    /// Tags (e.g. Iconify categories, or words an uploader gave).
-    pub tags: Vec<String>,
-    /// Keywords (e.g. CLDR annotations of an emoji).
-    pub keywords: Vec<String>,
-    /// A category path for the facet filter (`animals-nature`, or `animals-nature/animal-mammal`
-    /// for a subcategory; a filter on a category matches its subcategories).
-    pub category: Option<String>,
-}
-
-impl ItemText {
-    /// The text of an item known only by its id: the id's words without a file extension.
-    pub fn from_id(id: &str) -> Self {
-        Self {
-            name: name_from_id(id),
-            ..Self::default()
-        }
-    }
-}
-
-/// `noto/dog-face.svg` → `noto/dog-face`; `noto:dog-face` stays (the tokenizer splits both).
-pub fn name_from_id(id: &str) -> String {
-    let file_start = id.rfind(['/', '\\']).map_or(0, |i| i + 1);
-    match id[file_start..].rfind('.') {
-        Some(dot) if dot > 0 => id[..file_start + dot].to_string(),
-        _ => id.to_string(),
-    }
-}
-
-fn analyser() -> TextAnalyzer {
-    TextAnalyzer::builder(SimpleTokenizer::default())
-        .filter(RemoveLongFilter::limit(40))
-        .filter(LowerCaser)
-        .filter(AsciiFoldingFilter)
-        .build()
-}
 
 fn tantivy_error(what: &'static str) -> impl Fn(tantivy::TantivyError) -> Error {
     move |e| Error::Keywords {
@@ -274,67 +234,6 @@ impl KeywordIndex {
     }
 }
 
-/// The words of a query, as the index sees them.
-pub fn words(text: &str) -> Vec<String> {
-    let mut analyser = analyser();
-    let mut stream = analyser.token_stream(text);
-    let mut out: Vec<String> = Vec::new();
-    while stream.advance() {
-        let t = stream.token().text.clone();
-        if !out.contains(&t) {
-            out.push(t);
-        }
-    }
-    out
-}
-
-/// `animals-nature/animal-mammal` (or with a leading `/`) as a facet path.
-fn facet(category: &str) -> Facet {
-    Facet::from_path(category.split('/').map(str::trim).filter(|p| !p.is_empty()))
-}
-
-/// Collects every match with its score and row.
-struct AllHits;
-
-struct SegmentHits {
-    rows: Column<u64>,
-    hits: Vec<(u32, f32)>,
-}
-
-impl Collector for AllHits {
-    type Fruit = Vec<(u32, f32)>;
-    type Child = SegmentHits;
-
-    fn for_segment(&self, _ord: u32, segment: &SegmentReader) -> tantivy::Result<SegmentHits> {
-        Ok(SegmentHits {
-            rows: segment.fast_fields().u64("row")?,
-            hits: Vec::new(),
-        })
-    }
-
-    fn requires_scoring(&self) -> bool {
-        true
-    }
-
-    fn merge_fruits(&self, fruits: Vec<Vec<(u32, f32)>>) -> tantivy::Result<Vec<(u32, f32)>> {
-        Ok(fruits.concat())
-    }
-}
-
-impl SegmentCollector for SegmentHits {
-    type Fruit = Vec<(u32, f32)>;
-
-    fn collect(&mut self, doc: DocId, score: Score) {
-        if let Some(row) = self.rows.first(doc) {
-            self.hits.push((row as u32, score));
-        }
-    }
-
-    fn harvest(self) -> Vec<(u32, f32)> {
-        self.hits
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -425,13 +324,5 @@ mod tests {
         KeywordIndex::build(&texts, Some(dir.path()), &mut |_| {}).unwrap();
         let k = KeywordIndex::open(dir.path()).unwrap();
         assert_eq!(rows(&k.search(Some("aple"), None).unwrap()), [0]);
-    }
-
-    #[test]
-    fn names_from_ids() {
-        assert_eq!(name_from_id("noto/dog-face.svg"), "noto/dog-face");
-        assert_eq!(name_from_id("noto:dog-face"), "noto:dog-face");
-        assert_eq!(name_from_id("v1.2/.hidden"), "v1.2/.hidden");
-        assert_eq!(words("Noto/Dog-Face"), ["noto", "dog", "face"]);
     }
 }

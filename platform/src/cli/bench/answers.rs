@@ -1,4 +1,5 @@
-//! `platform bench`: a load benchmark of the answer path against the real server on loopback.
+//! `platform bench` (no scenario): a load benchmark of the answer path against the real server
+//! on loopback.
 //!
 //! The server ([`crate::app`]) runs in this process on `127.0.0.1:0`; simulated workers are
 //! HTTP clients (reqwest) in the same process, so both share the machine's cores. For each
@@ -16,6 +17,7 @@ use std::time::{Duration, Instant};
 use clap::Args;
 use sqlx::Row;
 
+use super::quantile;
 use crate::AppState;
 use crate::error::{AppError, Result};
 use crate::store::db::Db;
@@ -23,9 +25,9 @@ use crate::store::ids::StudyId;
 use crate::studies::library::{self, NewItem};
 use crate::studies::study::{self, StudySettings};
 
-/// Benchmark settings.
+/// Settings of the answer-path benchmark.
 #[derive(Debug, Clone, Args)]
-pub struct BenchArgs {
+pub struct AnswerArgs {
     /// Database URL for the benchmark (use a fresh SQLite file or PostgreSQL database).
     #[arg(long, default_value = "sqlite://platform-bench.db")]
     pub database_url: String,
@@ -83,15 +85,6 @@ fn cpu_per_request(since: Option<f64>, requests: f64) -> f64 {
     match (since, process_cpu_seconds()) {
         (Some(a), Some(b)) if requests > 0.0 => (b - a) * 1e6 / requests,
         _ => f64::NAN,
-    }
-}
-
-/// The `p` quantile of sorted `lat` (NaN when empty).
-fn quantile(lat: &[f64], p: f64) -> f64 {
-    if lat.is_empty() {
-        f64::NAN
-    } else {
-        lat[((lat.len() as f64 - 1.0) * p).round() as usize]
     }
 }
 
@@ -564,8 +557,8 @@ fn row(workers: usize, mode: &str, healthz: &Measurement, m: &Measurement) -> Re
     )
 }
 
-/// Runs the benchmark and prints a table.
-pub async fn run(args: BenchArgs) -> Result<()> {
+/// Runs the answer-path benchmark and prints a table.
+pub async fn run(args: AnswerArgs) -> Result<()> {
     if args.workers.is_empty() || args.workers.iter().any(|&w| w == 0 || w > 5000) {
         return Err(AppError::BadRequest("--workers: 1..=5000 each".into()));
     }

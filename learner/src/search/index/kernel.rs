@@ -1,0 +1,129 @@
+//! The distance loops of the exact scan, compiled for the widest vector unit the CPU has
+//! ([`crate::simd`]). Every path adds up in the same order, so every path gives the same bits.
+
+/// Row padding: the scan's inner loop works on this many `f32` lanes at a time (two AVX2
+/// registers, so two independent accumulator chains).
+pub const LANES: usize = 16;
+
+/// Rows per group: their lane sums are stored, then reduced (see [`squared_distances`]).
+const GROUP: usize = 64;
+
+/// Which rows of a row-major matrix a kernel reads.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Rows<'a> {
+    /// `out.len()` consecutive rows from this one.
+    From(usize),
+    /// These rows (one per output).
+    List(&'a [u32]),
+}
+
+crate::simd::vectorised_fn! {
+    /// Squared Euclidean distance from `q` to each row of `rows` (rows of `q.len()` floats, a
+    /// multiple of [`LANES`]), into `out`.
+    pub(crate) fn squared_distances<'a>(rows: &'a [f32], q: &'a [f32], out: &'a mut [f32]) -> () {
+        keys_with(rows, |i| i, &[q], out);
+    }
+}
+
+crate::simd::vectorised_fn! {
+    /// The value rows are ranked by, for the rows `rows` of `data` (row-major, `q.len()` floats
+    /// per row) against the `references`: the squared distance for one reference (the same
+    /// order as the distance, one square root less per row), the mean distance for several.
+    /// One pass over the rows: each group of rows is compared with every reference while it
+    /// is in the L1 cache, and candidate rows are read where they are (no gathered copy).
+    pub(crate) fn ranking_keys<'a>(
+        data: &'a [f32],
+        rows: Rows<'a>,
+        references: &'a [Vec<f32>],
+        keys: &'a mut [f32],
+    ) -> () {
+        match rows {
+            Rows::From(start) => keys_with(data, |i| start + i, references, keys),
+            Rows::List(list) => keys_with(data, |i| list[i] as usize, references, keys),
+        }
+    }
+}
+
+/// [`ranking_keys`] with row `i` of the output at row `at(i)` of `data`.
+#[inline(always)]
+fn keys_with<Q: AsRef<[f32]>>(
+    data: &[f32],
+    at: impl Fn(usize) -> usize,
+    references: &[Q],
+    keys: &mut [f32],
+) {
+    let Some(first) = references.first() else {
+        return;
+    };
+    let stride = first.as_ref().len();
+    let single = references.len() == 1;
+    // Two passes over each group: the lane sums of each row are stored, then reduced.
+    // Reducing each row's sums right away made LLVM's SLP vectoriser grow its tree from the
+    // reduction's 2-wide last step up into the loop, which then ran on `xmm` pairs of lanes;
+    // spilling them with a barrier instead stalled on store-to-load forwarding. Either cost
+    // ~3x the scan (perf on `learner bench search`). The arithmetic, hence every bit of the
+    // result, is the same.
+    let mut sums = [[0.0f32; LANES]; GROUP];
+    for (g, keys) in keys.chunks_mut(GROUP).enumerate() {
+        let base = g * GROUP;
+        for (j, q) in references.iter().enumerate() {
+            let q = q.as_ref();
+            for (i, s) in sums[..keys.len()].iter_mut().enumerate() {
+                let r = at(base + i) * stride;
+                *s = lane_sums(&data[r..r + stride], q);
+            }
+            if single {
+                for (s, k) in sums.iter().zip(keys.iter_mut()) {
+                    *k = reduce_lanes(s);
+                }
+            } else if j == 0 {
+                for (s, k) in sums.iter().zip(keys.iter_mut()) {
+                    *k = reduce_lanes(s).sqrt();
+                }
+            } else {
+                for (s, k) in sums.iter().zip(keys.iter_mut()) {
+                    *k += reduce_lanes(s).sqrt();
+                }
+            }
+        }
+        if !single {
+            let m = references.len() as f32;
+            for k in keys.iter_mut() {
+                *k /= m;
+            }
+        }
+    }
+}
+
+/// The [`LANES`] partial sums of `(a − b)²` over rows padded to [`LANES`], lane `l` over
+/// elements `l`, `l + LANES`, …; with [`reduce_lanes`], `‖a − b‖²` in an order that does not
+/// depend on the vector width, so every path gives the same bits.
+#[inline(always)]
+fn lane_sums(a: &[f32], b: &[f32]) -> [f32; LANES] {
+    let mut acc = [0.0f32; LANES];
+    let (a, _) = a.as_chunks::<LANES>();
+    let (b, _) = b.as_chunks::<LANES>();
+    for (x, y) in a.iter().zip(b) {
+        for l in 0..LANES {
+            let d = x[l] - y[l];
+            acc[l] += d * d;
+        }
+    }
+    acc
+}
+
+/// The partial sums added up in a fixed tree order.
+#[inline(always)]
+fn reduce_lanes(acc: &[f32; LANES]) -> f32 {
+    let mut half = [0.0f32; LANES / 2];
+    for l in 0..LANES / 2 {
+        half[l] = acc[l] + acc[l + LANES / 2];
+    }
+    let q = [
+        half[0] + half[4],
+        half[1] + half[5],
+        half[2] + half[6],
+        half[3] + half[7],
+    ];
+    (q[0] + q[2]) + (q[1] + q[3])
+}
