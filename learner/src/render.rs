@@ -44,8 +44,10 @@ pub fn render_svg(svg: &[u8]) -> Result<RgbImage> {
     render_svg_at(svg, CANVAS_SIZE)
 }
 
-/// Renders SVG bytes onto a white `size`x`size` canvas.
-pub fn render_svg_at(svg: &[u8], size: u32) -> Result<RgbImage> {
+/// Parses untrusted SVG bytes with every check of this module (size, nesting, a usable
+/// viewBox, no external files; system fonts for text). The platform re-serialises the tree to
+/// store a drawing's vector source and nests it in mash-up compositions (§5.7.3).
+pub fn parse_svg(svg: &[u8]) -> Result<usvg::Tree> {
     if svg.len() as u64 > MAX_SVG_BYTES {
         return Err(Error::FileTooLarge {
             size: svg.len() as u64,
@@ -102,6 +104,14 @@ pub fn render_svg_at(svg: &[u8], size: u32) -> Result<RgbImage> {
             height: h,
         });
     }
+    Ok(tree)
+}
+
+/// Renders SVG bytes onto a white `size`x`size` canvas.
+pub fn render_svg_at(svg: &[u8], size: u32) -> Result<RgbImage> {
+    let tree = parse_svg(svg)?;
+    let view = tree.size();
+    let (w, h) = (view.width(), view.height());
     let mut pixmap = tiny_skia::Pixmap::new(size, size).ok_or(Error::EmptyImage {
         width: size,
         height: size,

@@ -35,6 +35,7 @@ macro_rules! outln {
 pub mod cli;
 pub mod error;
 pub mod flow;
+pub mod mashup;
 pub mod search;
 pub mod store;
 pub mod studies;
@@ -109,6 +110,7 @@ pub fn app(state: AppState) -> Router {
         .layer(DefaultBodyLimit::max(limit))
         .merge(upload)
         .merge(example)
+        .merge(api::compositions::routes())
         .route("/favicon.ico", axum::routing::get(assets::favicon))
         .fallback(|| async { error::AppError::NotFound("page") })
         .layer(axum::middleware::from_fn(html_errors))

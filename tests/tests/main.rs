@@ -12,6 +12,7 @@ mod platform_cli;
 mod platform_cluster;
 mod platform_consent;
 mod platform_flow;
+mod platform_mashup;
 mod platform_openapi;
 mod platform_phone;
 mod platform_search;

@@ -91,6 +91,11 @@ typed_id!(
     BonusId
 );
 
+typed_id!(
+    /// A mash-up composition (§5.7.3).
+    CompositionId
+);
+
 /// Ids stay below 2^53, the largest integer a JavaScript number holds exactly.
 pub const ID_LIMIT: i64 = 1 << 53;
 

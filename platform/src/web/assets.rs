@@ -40,6 +40,11 @@ const ASSETS: &[Asset] = &[
         content_type: "text/javascript; charset=utf-8",
         body: include_bytes!("../../static/dashboard.js"),
     },
+    Asset {
+        name: "mashup.js",
+        content_type: "text/javascript; charset=utf-8",
+        body: include_bytes!("../../static/mashup.js"),
+    },
     // 32×32 PNG in an ICO container: three dots, a triplet, on the links' blue.
     Asset {
         name: "favicon.ico",
@@ -48,10 +53,32 @@ const ASSETS: &[Asset] = &[
     },
 ];
 
+/// Every asset: the files above and the mash-up backgrounds (`bg-NAME.jpg`, owned by
+/// [`crate::mashup::backgrounds`]).
+static ALL: LazyLock<Vec<Asset>> = LazyLock::new(|| {
+    let mut all: Vec<Asset> = ASSETS
+        .iter()
+        .map(|a| Asset {
+            name: a.name,
+            content_type: a.content_type,
+            body: a.body,
+        })
+        .collect();
+    for b in crate::mashup::backgrounds::BACKGROUNDS {
+        if let (Some(jpeg), Some(name)) = (b.jpeg, b.asset_name()) {
+            all.push(Asset {
+                name: Box::leak(name.into_boxed_str()),
+                content_type: "image/jpeg",
+                body: jpeg,
+            });
+        }
+    }
+    all
+});
+
 /// `(name, /static/name?v=HASH)` of every asset, computed once.
 static URLS: LazyLock<Vec<(&'static str, String)>> = LazyLock::new(|| {
-    ASSETS
-        .iter()
+    ALL.iter()
         .map(|a| {
             let hash = hex::encode(&Sha256::digest(a.body)[..6]);
             (a.name, format!("/static/{}?v={hash}", a.name))
@@ -81,7 +108,7 @@ pub async fn favicon() -> Result<Response> {
 }
 
 fn asset_response(file: &str, cache: &'static str) -> Result<Response> {
-    let asset = ASSETS
+    let asset = ALL
         .iter()
         .find(|a| a.name == file)
         .ok_or(AppError::NotFound("static file"))?;
@@ -140,6 +167,7 @@ mod tests {
         assert_eq!(u.len(), "/static/style.css?v=".len() + 12);
         assert_ne!(url("question.js"), url("dashboard.js"));
         assert_eq!(url("nope.js"), "/static/nope.js");
+        assert!(url("bg-grass.jpg").starts_with("/static/bg-grass.jpg?v="));
     }
 
     #[test]

@@ -131,10 +131,24 @@ pub async fn import_paths(
         {
             item.tags = words.clone();
         }
-        let rendered = tokio::task::spawn_blocking(move || item.render().map(|img| (item, img)))
-            .await
-            .map_err(AppError::internal)?;
-        let (item, image) = match rendered {
+        let rendered = tokio::task::spawn_blocking(move || {
+            let image = item.render()?;
+            let svg = match &item.source {
+                Source::SvgFile(path) => {
+                    let bytes = std::fs::read(path).map_err(|source| learner::Error::Io {
+                        path: path.clone(),
+                        source,
+                    })?;
+                    Some(super::svg_source(&bytes)?)
+                }
+                Source::SvgText(text) => Some(super::svg_source(text.as_bytes())?),
+                Source::RasterFile(_) => None,
+            };
+            Ok::<_, learner::Error>((item, image, svg))
+        })
+        .await
+        .map_err(AppError::internal)?;
+        let (item, image, svg) = match rendered {
             Ok(r) => r,
             Err(e) => {
                 report.skipped.push((at, e.to_string()));
@@ -146,6 +160,7 @@ pub async fn import_paths(
             name: item.id,
             tags: item.tags,
             image,
+            svg,
         };
         match insert_item(db, library, new).await? {
             Inserted::New(_) => report.imported += 1,

@@ -99,6 +99,16 @@ pub struct NewItem {
     pub tags: Vec<String>,
     /// 400x400 rendering.
     pub image: RgbImage,
+    /// The drawing's vector source as usvg re-serialised it ([`svg_source`]); `None` for a
+    /// raster item. Kept so mash-up exports stay vector (§5.7.3).
+    pub svg: Option<String>,
+}
+
+/// The vector source stored for an SVG drawing: parsed with the learner's checks and written
+/// back by usvg, so what the server keeps and serves has no scripts, external references or
+/// unknown elements, only the drawing.
+pub fn svg_source(svg: &[u8]) -> learner::Result<String> {
+    learner::render::parse_svg(svg).map(|tree| tree.to_string(&usvg::WriteOptions::default()))
 }
 
 /// What [`insert_item`] did with an item.
@@ -121,6 +131,7 @@ pub async fn insert_item(db: &Db, library: LibraryId, item: NewItem) -> Result<I
         style,
         tags,
         image,
+        svg,
     } = item;
     let prepared = tokio::task::spawn_blocking(move || -> Result<_> {
         let mut png = Vec::new();
@@ -153,8 +164,8 @@ pub async fn insert_item(db: &Db, library: LibraryId, item: NewItem) -> Result<I
     let seq: i64 = seq_row.try_get("m")?;
     let id = ItemId::generate();
     let result = sqlx::query(
-        "INSERT INTO items (id, library_id, seq, name, style, tags, png, features) \
-         VALUES ($1, $2, $3, $4, $5, $6, $7, $8) ON CONFLICT DO NOTHING",
+        "INSERT INTO items (id, library_id, seq, name, style, tags, png, features, svg) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9) ON CONFLICT DO NOTHING",
     )
     .bind(id.0)
     .bind(library.0)
@@ -164,6 +175,7 @@ pub async fn insert_item(db: &Db, library: LibraryId, item: NewItem) -> Result<I
     .bind(serde_json::to_string(&tags).map_err(AppError::internal)?)
     .bind(png)
     .bind(serde_json::to_string(&features).map_err(AppError::internal)?)
+    .bind(svg)
     .execute(&mut *db.write_conn().await?)
     .await?;
     Ok(if result.rows_affected() == 1 {

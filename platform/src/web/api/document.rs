@@ -9,7 +9,9 @@ use utoipa::openapi::security::{ApiKey, ApiKeyValue, SecurityRequirement, Securi
 use utoipa::openapi::{ContentBuilder, Ref, RefOr, ResponseBuilder};
 use utoipa::{Modify, OpenApi};
 
-use super::{OkBody, admin, models, quality, schema, search, settings, worker, workers};
+use super::{
+    OkBody, admin, compositions, models, quality, schema, search, settings, worker, workers,
+};
 use crate::error::ErrorBody;
 
 /// The OpenAPI document.
@@ -42,6 +44,13 @@ use crate::error::ErrorBody;
         models::admin_train,
         search::admin_search,
         search::admin_search_example,
+        compositions::create_composition,
+        compositions::list_compositions,
+        compositions::get_composition,
+        compositions::update_composition,
+        compositions::delete_composition,
+        compositions::render_composition,
+        compositions::export_composition,
         settings::admin_settings,
         settings::admin_edit_settings,
         settings::admin_settings_changes,

@@ -20,6 +20,7 @@ use crate::AppState;
 use crate::error::ErrorBody;
 
 mod admin;
+pub mod compositions;
 mod document;
 mod models;
 pub mod quality;

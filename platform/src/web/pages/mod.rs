@@ -16,6 +16,7 @@ use crate::studies::library;
 use crate::web::extract::ApiPath;
 
 mod admin_session;
+mod mashup;
 mod models;
 mod search;
 mod search_example;
@@ -37,6 +38,7 @@ pub fn routes() -> Router<AppState> {
         .merge(study_page::routes())
         .merge(models::routes())
         .merge(search::routes())
+        .merge(mashup::routes())
 }
 
 pub(super) fn render(t: &impl Template) -> Result<Response> {
@@ -93,6 +95,25 @@ async fn home() -> Response {
 }
 
 async fn media(State(state): State<AppState>, ApiPath(file): ApiPath<String>) -> Result<Response> {
+    if let Some(id) = file.strip_suffix(".svg") {
+        let id: ItemId = id.parse().map_err(|_| AppError::NotFound("item"))?;
+        // The usvg-normalised source stored on import (no scripts); 404 for a raster item.
+        let svg = crate::mashup::store::item_svg(&state.db, id)
+            .await?
+            .ok_or(AppError::NotFound("item SVG"))?;
+        return Ok((
+            [
+                (header::CONTENT_TYPE, "image/svg+xml"),
+                (header::CACHE_CONTROL, "public, max-age=86400, immutable"),
+                (
+                    header::CONTENT_SECURITY_POLICY,
+                    "default-src 'none'; img-src data:; style-src 'unsafe-inline'",
+                ),
+            ],
+            svg,
+        )
+            .into_response());
+    }
     let id: ItemId = file
         .strip_suffix(".png")
         .and_then(|s| s.parse().ok())
