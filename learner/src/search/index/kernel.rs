@@ -127,3 +127,50 @@ fn reduce_lanes(acc: &[f32; LANES]) -> f32 {
     ];
     (q[0] + q[2]) + (q[1] + q[3])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The one-pass keys of several references equal the previous two-step computation (a
+    /// squared-distance pass per reference over a gathered copy of the rows, then the mean of
+    /// the square roots) bit for bit, on the dispatched and the baseline paths, for a row list
+    /// and a row range that are not multiples of the group size.
+    #[test]
+    fn one_pass_keys_are_the_separate_passes_bit_for_bit() {
+        let (stride, n) = (48, 300);
+        let data: Vec<f32> = (0..n * stride)
+            .map(|i| ((i * 7919) % 1000) as f32 / 100.0 - 5.0)
+            .collect();
+        let row = |r: usize| data[r * stride..(r + 1) * stride].to_vec();
+        let refs: Vec<Vec<f32>> = (0..5).map(|r| row(r * 31 + 3)).collect();
+        let list: Vec<u32> = (0..n as u32).filter(|i| i % 3 != 1).collect();
+        let gathered: Vec<f32> = list.iter().flat_map(|&r| row(r as usize)).collect();
+        let mut want = vec![0.0f32; list.len()];
+        let mut d = vec![0.0f32; list.len()];
+        for q in &refs {
+            squared_distances(&gathered, q, &mut d);
+            for (w, d) in want.iter_mut().zip(&d) {
+                *w += d.sqrt();
+            }
+        }
+        for w in &mut want {
+            *w /= refs.len() as f32;
+        }
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let mut got = vec![0.0f32; list.len()];
+        ranking_keys(&data, Rows::List(&list), &refs, &mut got);
+        assert_eq!(bits(&got), bits(&want));
+        crate::simd::tests::baseline_only(|| {
+            ranking_keys(&data, Rows::List(&list), &refs, &mut got)
+        });
+        assert_eq!(bits(&got), bits(&want));
+
+        let mut one = vec![0.0f32; 100];
+        ranking_keys(&data, Rows::From(50), &refs[..1], &mut one);
+        let mut sd = vec![0.0f32; 100];
+        squared_distances(&data[50 * stride..150 * stride], &refs[0], &mut sd);
+        assert_eq!(bits(&one), bits(&sd));
+        assert!(one.iter().all(|v| v.is_finite() && *v >= 0.0));
+    }
+}
