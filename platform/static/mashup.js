@@ -241,7 +241,8 @@
       selected = doc.pieces.length - 1;
     });
     log({ event: "add", item: item, search_seq: searchSeq, position: position });
-    status("Added " + item + ".");
+    const r = results.find((x) => x.id === item);
+    status("Added " + (r ? r.name : "item " + item) + ".");
   }
   list.addEventListener("pointerdown", (e) => {
     const b = e.target.closest(".mashup-result");

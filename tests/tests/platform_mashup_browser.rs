@@ -378,7 +378,20 @@ async fn compose_export_save_and_load_in_chromium() {
     click(&c, "mashup-load").await;
     until(&c, "the load", "return JSON.parse(document.getElementById('mashup').dataset.document).pieces.length === 2;").await;
     assert_eq!(document(&c).await, doc);
-    shot(&c, &artifacts, "02-loaded.png").await;
+    shot(&c, &artifacts, "02-loaded-1100.png").await;
+    // A phone's width: the results above the canvas, the canvas within the screen.
+    c.set_window_size(390, 844).await.expect("phone width");
+    let fits = c
+        .execute(
+            "const c = document.getElementById('mashup-canvas').getBoundingClientRect();\
+             const r = document.getElementById('mashup-results').getBoundingClientRect();\
+             return c.right <= document.documentElement.clientWidth + 1 && r.bottom <= c.top;",
+            vec![],
+        )
+        .await
+        .expect("layout");
+    assert_eq!(fits, json!(true), "phone layout");
+    shot(&c, &artifacts, "03-phone-390.png").await;
 
     let violations = csp_violations(&c, &driver).await;
     assert!(violations.is_empty(), "{violations:?}");
