@@ -13,6 +13,7 @@ mod platform_cluster;
 mod platform_consent;
 mod platform_flow;
 mod platform_mashup;
+mod platform_mashup_browser;
 mod platform_openapi;
 mod platform_phone;
 mod platform_search;
