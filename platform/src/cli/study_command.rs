@@ -259,7 +259,9 @@ pub async fn run(command: StudyCommand) -> Result<()> {
                 }
                 StudyKind::Mashup => {
                     return Err(AppError::BadRequest(
-                        "mash-up studies are created with `platform study create-mashup`".into(),
+                        "kind mashup: mash-up studies cannot be created yet (their server side is still to \
+                         come, issue 17)"
+                            .into(),
                     ));
                 }
             };
