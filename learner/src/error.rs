@@ -116,6 +116,15 @@ pub enum Error {
         /// What there is.
         got: usize,
     },
+    /// A sample has no spread, so a t statistic (a ratio over its standard deviation) is
+    /// undefined.
+    #[error("all {n} values equal {value}: the t statistic is undefined without spread")]
+    ZeroVariance {
+        /// The sample size.
+        n: usize,
+        /// The common value.
+        value: f64,
+    },
     /// A features file does not have the columns a model was trained on.
     #[error("features do not match the model: {message}")]
     FeatureMismatch {

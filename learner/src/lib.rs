@@ -26,6 +26,7 @@ pub mod plane;
 pub mod render;
 pub mod search;
 mod simd;
+pub mod stats;
 pub mod table;
 pub mod triplets;
 

@@ -16,6 +16,7 @@ mod platform_mashup;
 mod platform_mashup_browser;
 mod platform_openapi;
 mod platform_phone;
+mod platform_rating;
 mod platform_search;
 mod platform_security;
 mod platform_settings;

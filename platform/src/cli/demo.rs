@@ -252,7 +252,13 @@ pub async fn simulate(db: &Db, study: &Study, n: u32, seed: u64) -> Result<SimRe
                      AND (b = $3 OR b = $4)",
                 )
                 .bind(study.id.0)
-                .bind(q.reference.id.0)
+                .bind(
+                    q.reference
+                        .as_ref()
+                        .ok_or_else(|| AppError::Internal("a triplet without a reference".into()))?
+                        .id
+                        .0,
+                )
                 .bind(q.left.id.0)
                 .bind(q.right.id.0)
                 .fetch_one(&db.pool)

@@ -7,9 +7,54 @@ use clap::Subcommand;
 use super::DbArgs;
 use crate::error::{AppError, Result};
 use crate::store::ids::StudyId;
+use crate::studies::kind::{RatingQuestion, StudyKind};
 use crate::studies::study::{self, MturkMode, StudySettings};
 use crate::studies::study_edit::{self, SettingsPatch};
-use crate::studies::{dashboard, library};
+use crate::studies::{dashboard, library, rating};
+
+/// A new study's settings before the file and the flags: the paper's triplet defaults, and for
+/// a composition rating its own instructions, no reasons questionnaire (its questions are about
+/// triplets) and the coherence question.
+fn kind_defaults(kind: StudyKind) -> StudySettings {
+    match kind {
+        StudyKind::CompositionRating => StudySettings {
+            description: "Compare two compositions of clip art.".into(),
+            instructions: rating::INSTRUCTIONS.into(),
+            show_worked_example: false,
+            reasons_probability: 0.0,
+            question: Some(RatingQuestion::Coherence),
+            ..StudySettings::default()
+        },
+        StudyKind::Triplet | StudyKind::Mashup => StudySettings::default(),
+    }
+}
+
+/// Imports the compositions into the library `lib`, makes the pairs and stores the study.
+async fn rating_pool(
+    db: &crate::store::db::Db,
+    name: &str,
+    lib: &str,
+    folder: &std::path::Path,
+    csv: &std::path::Path,
+    mut s: StudySettings,
+) -> Result<study::PendingPool> {
+    let rows = rating::read_rows(csv)?;
+    let report = library::import_paths(db, lib, &[folder.to_path_buf()], None).await?;
+    for (at, why) in &report.skipped {
+        eprintln!("skipped {at}: {why}");
+    }
+    let library = report
+        .library
+        .ok_or_else(|| AppError::Internal("the import made no library".into()))?;
+    let ids = library::list_items(db, library)
+        .await?
+        .into_iter()
+        .map(|i| (i.name, i.id))
+        .collect();
+    let pool = rating::draw(&rows, &ids, &s)?;
+    s.tuples = u32::try_from(pool.main.len()).unwrap_or(u32::MAX);
+    study::begin_drawn(db, name, library, StudyKind::CompositionRating, s, pool).await
+}
 
 /// `platform study ...`.
 #[derive(Debug, Subcommand)]
@@ -43,6 +88,22 @@ pub enum StudyCommand {
         /// MTurk `sandbox` or `live`.
         #[arg(long, value_parser = ["sandbox", "live"])]
         mturk_mode: Option<String>,
+        /// Study kind: `triplet` (style triplets), `composition-rating` (2AFC over pairs of
+        /// compositions: needs --compositions and --pairs) or `mashup`.
+        #[arg(long, default_value = "triplet")]
+        kind: String,
+        /// composition-rating: the folder of composition images, imported into --library.
+        #[arg(long)]
+        compositions: Option<PathBuf>,
+        /// composition-rating: CSV `file,condition,task[,control_expected]` (file relative to
+        /// --compositions, condition A or B; rows with control_expected are known-answer
+        /// pairs for practice and hidden controls).
+        #[arg(long)]
+        pairs: Option<PathBuf>,
+        /// composition-rating: `coherence` ("Which composition has a more coherent style?")
+        /// or `preference` ("Which composition do you like better?").
+        #[arg(long, value_parser = ["coherence", "preference"])]
+        question: Option<String>,
     },
     /// Change a study's settings (each change is audited). Fields that only steer what happens
     /// next change at any time; the HIT shape and the MTurk site only while the study has no
@@ -130,17 +191,39 @@ pub async fn run(command: StudyCommand) -> Result<()> {
             tuples,
             replication,
             mturk_mode,
+            kind,
+            compositions,
+            pairs,
+            question,
         } => {
+            let kind = StudyKind::parse(&kind)?;
             let db = db.connect().await?;
-            let mut s: StudySettings = match settings {
-                Some(path) => {
-                    let text = std::fs::read_to_string(&path)
-                        .map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))?;
-                    serde_json::from_str(&text)
-                        .map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))?
+            // The kind's defaults, then the file's fields over them.
+            let mut base = serde_json::to_value(kind_defaults(kind)).map_err(AppError::internal)?;
+            if let Some(path) = settings {
+                let text = std::fs::read_to_string(&path)
+                    .map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))?;
+                let file: serde_json::Value = serde_json::from_str(&text)
+                    .map_err(|e| AppError::BadRequest(format!("{}: {e}", path.display())))?;
+                let Some(fields) = file.as_object() else {
+                    return Err(AppError::BadRequest(format!(
+                        "{}: settings must be a JSON object",
+                        path.display()
+                    )));
+                };
+                if let Some(b) = base.as_object_mut() {
+                    b.extend(fields.clone());
                 }
-                None => StudySettings::default(),
-            };
+            }
+            let mut s: StudySettings = serde_json::from_value(base)
+                .map_err(|e| AppError::BadRequest(format!("settings: {e}")))?;
+            if let Some(q) = question {
+                s.question = Some(if q == "preference" {
+                    RatingQuestion::Preference
+                } else {
+                    RatingQuestion::Coherence
+                });
+            }
             if let Some(v) = questions_per_hit {
                 s.questions_per_hit = v;
             }
@@ -160,8 +243,28 @@ pub async fn run(command: StudyCommand) -> Result<()> {
                     MturkMode::Sandbox
                 };
             }
-            let library = library::ensure_existing(&db, &lib).await?;
-            let pending = study::begin(&db, &name, library, s).await?;
+            let pending = match kind {
+                StudyKind::Triplet => {
+                    let library = library::ensure_existing(&db, &lib).await?;
+                    study::begin(&db, &name, library, s).await?
+                }
+                StudyKind::CompositionRating => {
+                    let (Some(folder), Some(csv)) = (compositions, pairs) else {
+                        return Err(AppError::BadRequest(
+                            "a composition-rating study needs --compositions DIR and --pairs CSV"
+                                .into(),
+                        ));
+                    };
+                    rating_pool(&db, &name, &lib, &folder, &csv, s).await?
+                }
+                StudyKind::Mashup => {
+                    return Err(AppError::BadRequest(
+                        "kind mashup: mash-up studies cannot be created yet (their server side is still to \
+                         come, issue 17)"
+                            .into(),
+                    ));
+                }
+            };
             let (id, warnings) = (pending.id, pending.warnings.clone());
             // The pool is written in chunks (a server on the same database keeps answering);
             // a large one reports its progress every tenth.

@@ -96,7 +96,7 @@ pub async fn state(db: &Db, study: &Study, a: &Assignment) -> Result<AssignmentS
     match a.status.as_str() {
         "training" => {
             st.training = training::questions(db, study, a).await?;
-            st.last_training_attempt = training::last_attempt(db, a).await?;
+            st.last_training_attempt = training::last_attempt(db, study.kind, a).await?;
         }
         "abandoned" => {}
         "declined" => st.handback = Some(consent::handback(study, a)),
@@ -127,6 +127,7 @@ pub async fn state(db: &Db, study: &Study, a: &Assignment) -> Result<AssignmentS
                         let (b, c): (i64, i64) = (r.try_get("b")?, r.try_get("c")?);
                         st.reasons_for = Some(position);
                         st.reasons_question = Some(view(
+                            study.kind,
                             position,
                             r.try_get("a")?,
                             b,
@@ -138,6 +139,7 @@ pub async fn state(db: &Db, study: &Study, a: &Assignment) -> Result<AssignmentS
                     }
                 } else if upcoming.len() < 2 {
                     upcoming.push(view(
+                        study.kind,
                         position,
                         r.try_get("a")?,
                         r.try_get("b")?,
@@ -149,7 +151,12 @@ pub async fn state(db: &Db, study: &Study, a: &Assignment) -> Result<AssignmentS
             let mut upcoming = upcoming.into_iter();
             st.question = upcoming.next();
             if let Some(next) = upcoming.next() {
-                st.preload = vec![next.reference.url, next.left.url, next.right.url];
+                st.preload = next
+                    .reference
+                    .into_iter()
+                    .chain([next.left, next.right])
+                    .map(|i| i.url)
+                    .collect();
             }
             if a.status == "completed" {
                 let code = code(&study.secret, "complete", a.id);

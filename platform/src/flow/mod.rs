@@ -17,6 +17,7 @@ use utoipa::ToSchema;
 use crate::error::{AppError, Result};
 use crate::store::db::{Backend, Db, now_ms};
 use crate::store::ids::{AssignmentId, ItemId, StudyId, WorkerId, random_token};
+use crate::studies::kind::StudyKind;
 use crate::studies::study::{self, MturkMode, Study};
 
 mod answers;
@@ -151,14 +152,15 @@ impl ItemRef {
     }
 }
 
-/// One triplet as the worker sees it: "Is `reference` more similar in style to `left` or to
-/// `right`?"
+/// One tuple as the worker sees it: for a triplet, "Is `reference` more similar in style to
+/// `left` or to `right`?"; for a composition pair (no `reference`), `left` against `right`.
 #[derive(Debug, Clone, Serialize, ToSchema)]
 pub struct QuestionView {
     /// Position in the HIT (answers are keyed by it); for training, the index.
     pub position: i64,
-    /// A.
-    pub reference: ItemRef,
+    /// A (triplets only: a composition pair has none, and the key is absent).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference: Option<ItemRef>,
     /// B or C (display order is randomised per worker).
     pub left: ItemRef,
     /// C or B.
@@ -172,11 +174,12 @@ fn mix(a: i64, b: i64) -> bool {
     (x >> 63) == 1
 }
 
-fn view(position: i64, a: i64, b: i64, c: i64, swapped: bool) -> QuestionView {
+/// How `kind` shows the tuple (a, b, c) at `position`, b and c swapped or not.
+fn view(kind: StudyKind, position: i64, a: i64, b: i64, c: i64, swapped: bool) -> QuestionView {
     let (left, right) = if swapped { (c, b) } else { (b, c) };
     QuestionView {
         position,
-        reference: ItemRef::new(a),
+        reference: kind.shows_reference().then(|| ItemRef::new(a)),
         left: ItemRef::new(left),
         right: ItemRef::new(right),
     }

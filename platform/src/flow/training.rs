@@ -17,6 +17,7 @@ use super::{Assignment, QuestionView, mix, view};
 use crate::error::Result;
 use crate::store::db::Db;
 use crate::store::ids::{ItemId, StudyId, TupleId};
+use crate::studies::kind::StudyKind;
 use crate::studies::study::Study;
 
 /// A training triplet: (tuple, a, b, c); the expected answer is `b`.
@@ -76,7 +77,7 @@ pub(super) async fn questions(db: &Db, study: &Study, a: &Assignment) -> Result<
         .await?
         .into_iter()
         .enumerate()
-        .map(|(i, (t, x, y, z))| view(i as i64, x, y, z, mix(a.id.0, t.0)))
+        .map(|(i, (t, x, y, z))| view(study.kind, i as i64, x, y, z, mix(a.id.0, t.0)))
         .collect())
 }
 
@@ -94,7 +95,11 @@ pub struct TrainingReview {
 }
 
 /// The questions of the assignment's last attempt (empty before the first), in the order shown.
-pub(super) async fn last_attempt(db: &Db, a: &Assignment) -> Result<Vec<TrainingReview>> {
+pub(super) async fn last_attempt(
+    db: &Db,
+    kind: StudyKind,
+    a: &Assignment,
+) -> Result<Vec<TrainingReview>> {
     if a.training_attempts == 0 {
         return Ok(Vec::new());
     }
@@ -114,7 +119,7 @@ pub(super) async fn last_attempt(db: &Db, a: &Assignment) -> Result<Vec<Training
             let (x, b, c): (i64, i64, i64) = (r.try_get("a")?, r.try_get("b")?, r.try_get("c")?);
             let chose_b = r.try_get::<String, _>("choice")? == "b";
             Ok(TrainingReview {
-                question: view(i as i64, x, b, c, mix(a.id.0, tuple)),
+                question: view(kind, i as i64, x, b, c, mix(a.id.0, tuple)),
                 chosen: ItemId(if chose_b { b } else { c }),
                 expected: ItemId(b),
                 correct: r.try_get::<i64, _>("correct")? != 0,
@@ -136,7 +141,7 @@ pub struct WorkedExample {
 /// The study's worked example: the last triplet of its training pool (the one an attempt
 /// reaches last, if ever), or `None` when the study has no training or does not show one.
 pub async fn worked_example(db: &Db, study: &Study) -> Result<Option<WorkedExample>> {
-    if !study.settings.show_worked_example {
+    if !study.settings.show_worked_example || !study.kind.has_worked_example() {
         return Ok(None);
     }
     let row = sqlx::query(
@@ -151,6 +156,7 @@ pub async fn worked_example(db: &Db, study: &Study) -> Result<Option<WorkedExamp
     let b: i64 = r.try_get("b")?;
     Ok(Some(WorkedExample {
         question: view(
+            study.kind,
             0,
             r.try_get("a")?,
             b,

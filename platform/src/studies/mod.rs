@@ -5,8 +5,11 @@
 pub mod bonus;
 pub mod dashboard;
 pub mod export;
+pub mod kind;
 pub mod library;
 pub mod markdown;
+pub mod rating;
+pub mod report;
 pub mod study;
 pub mod study_edit;
 pub mod train;

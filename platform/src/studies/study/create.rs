@@ -27,6 +27,7 @@ use super::{LabelStats, StudySettings, pool_warnings, practice_pool_size, recove
 use crate::error::{AppError, Result};
 use crate::store::db::{Db, now_ms};
 use crate::store::ids::{LibraryId, StudyId, TupleId, random_token};
+use crate::studies::kind::StudyKind;
 use crate::studies::library;
 
 /// Most rows (tuples and slots) written in one transaction. ~4,000 rows take 20–40 ms on
@@ -131,6 +132,30 @@ pub async fn start_creation(
     })
 }
 
+/// A tuple pool drawn before anything is stored: the main tuples (each replicated R times in
+/// slots), the hidden controls and the practice tuples (of both, `b` is the expected answer),
+/// and what the pool lacks against the settings. Each study kind draws its own
+/// (triplets here, composition pairs in [`crate::studies::rating`]); storing it is shared.
+#[derive(Debug, Clone, Default)]
+pub struct DrawnPool {
+    /// Main tuples.
+    pub main: Vec<NewTuple>,
+    /// Hidden controls.
+    pub controls: Vec<NewTuple>,
+    /// Practice tuples (the training gate and the worked example).
+    pub training: Vec<NewTuple>,
+    /// What the pool lacks against the settings.
+    pub warnings: Vec<String>,
+}
+
+fn check_name(name: &str) -> Result<&str> {
+    let name = name.trim();
+    if name.is_empty() || name.len() > 200 {
+        return Err(AppError::BadRequest("name: 1-200 characters".into()));
+    }
+    Ok(name)
+}
+
 /// Checks the settings, the name and the library, draws every triplet and stores the study
 /// (status `creating`) with its controls and practice triplets in one transaction; the main
 /// tuples follow in [`PendingPool::build`]. Refuses more tuples than the library has distinct
@@ -142,10 +167,7 @@ pub async fn begin(
     settings: StudySettings,
 ) -> Result<PendingPool> {
     settings.validate()?;
-    let name = name.trim();
-    if name.is_empty() || name.len() > 200 {
-        return Err(AppError::BadRequest("name: 1-200 characters".into()));
-    }
+    check_name(name)?;
     let items = library::list_items(db, library).await?;
     if items.len() < 3 {
         return Err(AppError::BadRequest(format!(
@@ -173,6 +195,52 @@ pub async fn begin(
     // Practice first: a small library that cannot fill both pools still gets its practice.
     let training: Vec<NewTuple> = labelled.iter().take(practice_count).copied().collect();
     let controls: Vec<NewTuple> = labelled.iter().skip(practice_count).copied().collect();
+    let warnings = pool_warnings(
+        &settings,
+        controls.len(),
+        training.len(),
+        &LabelStats::of(&items),
+    );
+    let pool = DrawnPool {
+        main,
+        controls,
+        training,
+        warnings,
+    };
+    store(db, name, library, StudyKind::Triplet, settings, pool).await
+}
+
+/// Stores a study of `kind` with a pool its kind drew: the study row (status `creating`), its
+/// controls and practice tuples in one transaction; the main tuples follow in
+/// [`PendingPool::build`], as for every kind.
+pub async fn begin_drawn(
+    db: &Db,
+    name: &str,
+    library: LibraryId,
+    kind: StudyKind,
+    settings: StudySettings,
+    pool: DrawnPool,
+) -> Result<PendingPool> {
+    settings.validate()?;
+    check_name(name)?;
+    store(db, name, library, kind, settings, pool).await
+}
+
+async fn store(
+    db: &Db,
+    name: &str,
+    library: LibraryId,
+    kind: StudyKind,
+    settings: StudySettings,
+    pool: DrawnPool,
+) -> Result<PendingPool> {
+    let name = check_name(name)?;
+    let DrawnPool {
+        main,
+        controls,
+        training,
+        warnings,
+    } = pool;
     let replication = settings.replication;
     let small = (controls.len() + training.len()) as i64;
     let total = small + main.len() as i64 * (1 + i64::from(replication));
@@ -180,11 +248,13 @@ pub async fn begin(
     let id = StudyId::generate();
     let mut tx = db.begin_write().await?;
     sqlx::query(
-        "INSERT INTO studies (id, name, library_id, settings, secret, created_at, status, \
-         pool_done, pool_total, pool_beat) VALUES ($1, $2, $3, $4, $5, $6, 'creating', $7, $8, $9)",
+        "INSERT INTO studies (id, name, kind, library_id, settings, secret, created_at, status, \
+         pool_done, pool_total, pool_beat) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7, 'creating', $8, $9, $10)",
     )
     .bind(id.0)
     .bind(name)
+    .bind(kind.as_str())
     .bind(library.0)
     .bind(serde_json::to_string(&settings).map_err(AppError::internal)?)
     .bind(format!("{}{}", random_token(), random_token()))
@@ -205,12 +275,6 @@ pub async fn begin(
         insert_tuples(&mut tx, id, kind, &rows).await?;
     }
     tx.commit().await?;
-    let warnings = pool_warnings(
-        &settings,
-        controls.len(),
-        training.len(),
-        &LabelStats::of(&items),
-    );
     Ok(PendingPool {
         id,
         warnings,

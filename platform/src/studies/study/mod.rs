@@ -9,6 +9,7 @@ use sqlx::Row;
 use crate::error::{AppError, Result};
 use crate::store::db::Db;
 use crate::store::ids::{LibraryId, StudyId, TupleId};
+use crate::studies::kind::StudyKind;
 
 mod create;
 mod recovery;
@@ -18,7 +19,8 @@ mod triplets;
 mod warnings;
 
 pub use create::{
-    CHUNK_ROWS, CREATE_WAIT, PendingPool, PoolSummary, Started, begin, create, start_creation,
+    CHUNK_ROWS, CREATE_WAIT, DrawnPool, PendingPool, PoolSummary, Started, begin, begin_drawn,
+    create, start_creation,
 };
 pub use recovery::{STALE_MS, WATCH_EVERY, recover, watch};
 pub use settings::{
@@ -94,6 +96,8 @@ pub struct Study {
     pub id: StudyId,
     /// Name.
     pub name: String,
+    /// What the study asks of its workers.
+    pub kind: StudyKind,
     /// The library its items come from.
     pub library: LibraryId,
     /// Settings.
@@ -134,7 +138,7 @@ pub async fn load(db: &Db, id: StudyId) -> Result<Study> {
 /// Loads a study through `conn` (e.g. inside a write transaction).
 pub async fn load_on(conn: &mut sqlx::AnyConnection, id: StudyId) -> Result<Study> {
     let row = sqlx::query(
-        "SELECT id, name, library_id, settings, secret, created_at, status, pool_done, \
+        "SELECT id, name, kind, library_id, settings, secret, created_at, status, pool_done, \
          pool_total, pool_beat, pool_error FROM studies WHERE id = $1",
     )
     .bind(id.0)
@@ -145,6 +149,8 @@ pub async fn load_on(conn: &mut sqlx::AnyConnection, id: StudyId) -> Result<Stud
     Ok(Study {
         id: StudyId(row.try_get("id")?),
         name: row.try_get("name")?,
+        kind: StudyKind::parse(&row.try_get::<String, _>("kind")?)
+            .map_err(|e| AppError::Internal(e.to_string()))?,
         library: LibraryId(row.try_get("library_id")?),
         settings: serde_json::from_str(&settings).map_err(AppError::internal)?,
         secret: row.try_get("secret")?,

@@ -98,6 +98,10 @@ pub struct StudySettings {
     /// Workers who took part in these studies may not take part.
     #[schema(max_items = 1000)]
     pub exclude_workers_of: Vec<StudyId>,
+    /// The question of a composition-rating study (`coherence` or `preference`); absent for
+    /// the other kinds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub question: Option<crate::studies::kind::RatingQuestion>,
     /// Seed of the tuple generation (below 2^53, so JavaScript reads it exactly).
     #[schema(minimum = 0, maximum = 9_007_199_254_740_991_u64)]
     pub seed: u64,
@@ -139,6 +143,7 @@ impl Default for StudySettings {
             prolific_noconsent_code: None,
             blocked_workers: Vec::new(),
             exclude_workers_of: Vec::new(),
+            question: None,
             seed: 1,
         }
     }

@@ -220,6 +220,19 @@ pub(super) async fn admin_dashboard(
     Ok(Json(dashboard::compute(&state.db, &s).await?.0))
 }
 
+/// The study's report for its kind: for a composition rating, the rate at which workers chose
+/// the style-sorted composition with the one-sided t-test against 0.5 over workers.
+#[utoipa::path(get, path = "/api/v1/admin/studies/{study}/report", params(("study" = i64, Path)),
+    responses((status = 200, body = crate::studies::report::StudyReport)))]
+pub(super) async fn admin_report(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<StudyId>,
+) -> Result<Json<crate::studies::report::StudyReport>> {
+    let s = study::load(&state.db, id).await?;
+    Ok(Json(crate::studies::report::report(&state.db, &s).await?))
+}
+
 /// Per-worker table.
 #[utoipa::path(get, path = "/api/v1/admin/studies/{study}/workers", params(("study" = i64, Path)),
     responses((status = 200, body = Vec<WorkerRow>)))]

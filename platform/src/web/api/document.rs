@@ -33,6 +33,7 @@ use crate::error::ErrorBody;
         admin::admin_study,
         admin::admin_dashboard,
         admin::admin_workers,
+        admin::admin_report,
         admin::admin_audit,
         admin::admin_verify_code,
         admin::admin_export,

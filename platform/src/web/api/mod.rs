@@ -70,6 +70,10 @@ pub fn routes() -> Router<AppState> {
             get(admin_dashboard),
         )
         .route("/api/v1/admin/studies/{study}/workers", get(admin_workers))
+        .route(
+            "/api/v1/admin/studies/{study}/report",
+            get(admin::admin_report),
+        )
         .route("/api/v1/admin/studies/{study}/audit", get(admin_audit))
         .route("/api/v1/admin/studies/{study}/qc", post(admin_qc))
         .route(

@@ -77,6 +77,8 @@ struct AdminStudy {
     worker_link: String,
     /// The pool's progress, failure and warnings.
     pool: pool::PoolView,
+    /// A composition-rating study's report (the preference rate and its t-test).
+    rating: Option<crate::studies::rating::RatingReport>,
     d: dashboard::Dashboard,
     rejection_rate: String,
     agreement: String,
@@ -273,6 +275,10 @@ async fn study_page(state: &AppState, admin: &Admin, id: StudyId, view: View) ->
             state.settings.public_url.trim_end_matches('/')
         ),
         pool: pool::PoolView::of(&state.db, &s).await?,
+        rating: match crate::studies::report::report(&state.db, &s).await? {
+            crate::studies::report::StudyReport::CompositionRating(r) => Some(r),
+            _ => None,
+        },
         rejection_rate: fmt_opt(d.rejection_rate),
         agreement: fmt_opt(d.agreement_with_majority),
         ceiling: fmt_opt(d.noise_ceiling),

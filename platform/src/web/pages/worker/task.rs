@@ -23,6 +23,8 @@ struct TrainingPage {
     /// The previous attempt with the right answers (empty at the first attempt).
     review: Vec<TrainingReview>,
     questions: Vec<QuestionView>,
+    /// The kind's question (shown when the tuples have no reference).
+    prompt: &'static str,
 }
 
 #[derive(Template)]
@@ -31,6 +33,8 @@ struct QuestionPage {
     token: String,
     sandbox: bool,
     q: QuestionView,
+    /// The kind's question (shown when the tuple has no reference).
+    prompt: &'static str,
     number: i64,
     total: i64,
     preload: Vec<String>,
@@ -61,6 +65,7 @@ async fn show_assignment(state: &AppState, token: &str) -> Result<Response> {
     let s = flow::study_of(&state.db, &a).await?;
     let st = flow::state(&state.db, &s, &a).await?;
     let sandbox = st.sandbox;
+    let prompt = s.kind.prompt(s.settings.question.unwrap_or_default());
     if st.status == "abandoned" {
         return Err(AppError::Conflict(
             "this assignment has expired; please return the HIT".into(),
@@ -74,6 +79,7 @@ async fn show_assignment(state: &AppState, token: &str) -> Result<Response> {
             max_attempts: st.max_training_attempts,
             review: st.last_training_attempt,
             questions: st.training,
+            prompt,
         });
     }
     if let Some(position) = st.reasons_for {
@@ -107,6 +113,7 @@ async fn show_assignment(state: &AppState, token: &str) -> Result<Response> {
         return render(&QuestionPage {
             token: token.to_string(),
             sandbox,
+            prompt,
             number: st.answered + 1,
             total: st.total,
             q,

@@ -1,0 +1,34 @@
+//! What a study's answers say, per kind: a triplet study is summarised by its dashboard and
+//! trained into a metric (`dashboard`, `train`); a composition rating by the preference rate
+//! for the style-sorted condition and its t-test (`rating`).
+
+use serde::Serialize;
+
+use crate::error::Result;
+use crate::store::db::Db;
+use crate::studies::kind::StudyKind;
+use crate::studies::rating::{self, RatingReport};
+use crate::studies::study::Study;
+
+/// A study's report, tagged with its kind.
+#[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum StudyReport {
+    /// Triplet studies are summarised by the dashboard and the trained metric.
+    Triplet,
+    /// The 2AFC report.
+    CompositionRating(RatingReport),
+    /// Mash-up studies: not summarised yet.
+    Mashup,
+}
+
+/// The report of `study`.
+pub async fn report(db: &Db, study: &Study) -> Result<StudyReport> {
+    Ok(match study.kind {
+        StudyKind::Triplet => StudyReport::Triplet,
+        StudyKind::CompositionRating => {
+            StudyReport::CompositionRating(rating::report(db, study).await?)
+        }
+        StudyKind::Mashup => StudyReport::Mashup,
+    })
+}
