@@ -228,9 +228,12 @@ pub(super) async fn delete_composition(
 pub(super) async fn render_composition(
     _admin: Admin,
     State(state): State<AppState>,
-    ApiQuery(q): ApiQuery<FormatQuery>,
+    // The query is checked after the body's content type and JSON, so that a request without
+    // a JSON body is a 415 whatever its query, as on every other operation with a body.
+    q: std::result::Result<ApiQuery<FormatQuery>, crate::error::AppError>,
     ApiJson(body): ApiJson<RenderRequest>,
 ) -> Result<Response> {
+    let ApiQuery(q) = q?;
     let lib = library(&state, &body.library).await?;
     checked(&state, lib, &body.document).await?;
     picture(&state, body.document, q.format, "composition").await
