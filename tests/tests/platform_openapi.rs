@@ -260,7 +260,8 @@ async fn shared_statuses_are_documented() {
                 &path
                     .replace("{study}", &study.to_string())
                     .replace("{token}", "0123456789abcdef0123456789abcdef")
-                    .replace("{assignment}", "1"),
+                    .replace("{assignment}", "1")
+                    .replace("{id}", "1"),
             );
             let method: reqwest::Method = method.to_uppercase().parse().expect("method");
             let req = admin
