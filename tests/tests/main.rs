@@ -33,11 +33,17 @@ fn every_test_file_is_a_module_of_the_test_binary() {
     let mut missing = Vec::new();
     for entry in std::fs::read_dir(&dir).expect("list tests/") {
         let path = entry.expect("entry").path();
-        let name = path.file_stem().and_then(|s| s.to_str()).expect("utf-8 name");
+        let name = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .expect("utf-8 name");
         let is_module = path.is_dir() || path.extension().is_some_and(|e| e == "rs");
         if is_module && name != "main" && !main.contains(&format!("\nmod {name};")) {
             missing.push(name.to_string());
         }
     }
-    assert!(missing.is_empty(), "not declared in tests/tests/main.rs: {missing:?}");
+    assert!(
+        missing.is_empty(),
+        "not declared in tests/tests/main.rs: {missing:?}"
+    );
 }
