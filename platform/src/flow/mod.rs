@@ -191,4 +191,4 @@ pub async fn study_of(db: &Db, a: &Assignment) -> Result<Study> {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

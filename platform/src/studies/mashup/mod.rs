@@ -13,7 +13,11 @@
 
 mod conditions;
 pub mod log;
+pub mod pool;
 pub mod report;
+pub mod submit;
+#[cfg(test)]
+mod db_tests;
 
 use serde::{Deserialize, Serialize};
 

@@ -184,6 +184,9 @@ impl StudySettings {
                 self.controls_per_hit, self.questions_per_hit
             ));
         }
+        if let Some(m) = &self.mashup {
+            m.validate()?;
+        }
         if self.training_questions > 20 {
             return bad(format!(
                 "training_questions: {} not in 0..=20",
