@@ -12,12 +12,12 @@
 //! of the submitted document.
 
 mod conditions;
+#[cfg(test)]
+mod db_tests;
 pub mod log;
 pub mod pool;
 pub mod report;
 pub mod submit;
-#[cfg(test)]
-mod db_tests;
 
 use serde::{Deserialize, Serialize};
 
