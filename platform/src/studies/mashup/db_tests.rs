@@ -175,8 +175,8 @@ async fn a_mashup_hit_is_logged_checked_submitted_and_reported() {
             "w1's search",
         );
         bad_request(
-            log::record_event(&db, w0, &Event::Remove { item: list2[0] }).await,
-            "remove twice",
+            log::record_event(&db, w0, &Event::Remove { item: list2[1] }).await,
+            "remove of an item never added",
         );
         let confirm = Event::Search {
             seq: 2,

@@ -11,7 +11,7 @@ use super::Condition;
 use super::log::{self, replay};
 use crate::error::{AppError, Result};
 use crate::store::db::Db;
-use crate::store::ids::{AssignmentId, StudyId};
+use crate::store::ids::{AssignmentId, CompositionId, StudyId};
 
 /// One submitted composition, as the report counts it.
 #[derive(Debug, Clone, PartialEq)]
@@ -100,7 +100,7 @@ pub fn summarise(submitted: &[Submitted]) -> Result<MashupReport> {
 /// The submitted compositions of `study`, with their pieces' logged positions.
 pub async fn submitted(db: &Db, study: StudyId) -> Result<Vec<Submitted>> {
     let rows = sqlx::query(
-        "SELECT c.assignment_id, c.condition FROM mashup_conditions c \
+        "SELECT c.assignment_id, c.condition, s.composition_id FROM mashup_conditions c \
          JOIN mashup_submissions s ON s.assignment_id = c.assignment_id \
          WHERE c.study_id = $1 ORDER BY c.seq",
     )
@@ -111,10 +111,14 @@ pub async fn submitted(db: &Db, study: StudyId) -> Result<Vec<Submitted>> {
     for r in rows {
         let assignment = AssignmentId(r.try_get("assignment_id")?);
         let condition = Condition::from_stored(&r.try_get::<String, _>("condition")?)?;
-        // The submission was checked against this replay, so it cannot fail here.
-        let on = replay(&log::events(db, assignment).await?)
+        // The submission was checked against the same events, so this cannot fail.
+        let doc = crate::mashup::store::get(db, CompositionId(r.try_get("composition_id")?))
+            .await?
+            .document;
+        let items: Vec<_> = doc.pieces.iter().map(|p| p.item).collect();
+        let canvas = replay(&log::events(db, assignment).await?);
+        let mut positions = log::positions(&items, &canvas)
             .map_err(|e| AppError::Internal(format!("assignment {assignment}: {e}")))?;
-        let mut positions: Vec<i64> = on.into_values().flatten().collect();
         positions.sort_unstable();
         out.push(Submitted {
             condition,

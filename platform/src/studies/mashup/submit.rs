@@ -1,28 +1,25 @@
 //! A worker's submitted composition (§5.7.3): the quality check of a mash-up HIT is the
 //! study's minimum numbers of pieces and searches and the validity of the document, whose
-//! pieces must be exactly those the logged events left on the canvas (so every piece has one
-//! logged position). The composition is stored in `compositions` (migration 0012) and linked
+//! every piece must have a logged, server-checked position (`log::positions`). The composition is stored in `compositions` (migration 0012) and linked
 //! to the assignment in `mashup_submissions` (migration 0015), in one transaction.
-
-use std::collections::HashMap;
 
 use sqlx::Row;
 
 use super::MashupSettings;
-use super::log::{self, replay};
+use super::log::{self, Canvas, positions, replay};
 use crate::error::{AppError, Result};
 use crate::mashup::Document;
 use crate::store::db::{Db, now_ms};
 use crate::store::ids::{AssignmentId, CompositionId, ItemId, LibraryId};
 
-/// Checks `doc` (already [`Document::validate`]d) against the study's minimums and the pieces
-/// the events left on the canvas (`on_canvas`: per item, its pieces' positions).
+/// Checks `doc` (already [`Document::validate`]d) against the study's minimums and the log
+/// (`canvas`), and returns its pieces' logged positions.
 pub fn check(
     settings: &MashupSettings,
     doc: &Document,
     searches: i64,
-    on_canvas: &HashMap<ItemId, Vec<i64>>,
-) -> Result<()> {
+    canvas: &Canvas,
+) -> Result<Vec<i64>> {
     if let Some(fixed) = &settings.background
         && &doc.background != fixed
     {
@@ -44,26 +41,8 @@ pub fn check(
             settings.min_searches
         )));
     }
-    let mut in_doc: HashMap<ItemId, usize> = HashMap::new();
-    for p in &doc.pieces {
-        *in_doc.entry(p.item).or_default() += 1;
-    }
-    let mut items: Vec<ItemId> = in_doc.keys().chain(on_canvas.keys()).copied().collect();
-    items.sort_unstable();
-    items.dedup();
-    for item in items {
-        let (doc_n, logged_n) = (
-            in_doc.get(&item).copied().unwrap_or(0),
-            on_canvas.get(&item).map_or(0, Vec::len),
-        );
-        if doc_n != logged_n {
-            return Err(AppError::BadRequest(format!(
-                "document: item {item} appears {doc_n} times, but {logged_n} were added from \
-                 search results and not removed"
-            )));
-        }
-    }
-    Ok(())
+    let items: Vec<ItemId> = doc.pieces.iter().map(|p| p.item).collect();
+    positions(&items, canvas)
 }
 
 /// Stores the submission of `assignment` after [`check`]ing it against the log; a second
@@ -75,9 +54,9 @@ pub async fn submit(
     settings: &MashupSettings,
     doc: &Document,
 ) -> Result<CompositionId> {
-    let on_canvas = replay(&log::events(db, assignment).await?)?;
+    let canvas = replay(&log::events(db, assignment).await?);
     let searches = log::search_count(db, assignment).await?;
-    check(settings, doc, searches, &on_canvas)?;
+    check(settings, doc, searches, &canvas)?;
     let id = CompositionId::generate();
     let now = now_ms();
     let mut tx = db.begin_write().await?;
