@@ -1,13 +1,9 @@
-//! Seeded randomness of the mash-up study: which condition an assignment gets, and the order
-//! of condition B's results. Both are pure functions of the study's seed and stable names, so a
+//! Seeded randomness of the mash-up study: which condition an assignment gets, and the seed of
+//! condition B's random order. Both are pure functions of the study's seed and stable names, so a
 //! study replays the same way on any machine and any Rust version (no `DefaultHasher`).
 
-use rand::SeedableRng;
-use rand::seq::SliceRandom;
-use rand_chacha::ChaCha8Rng;
-
 use super::Condition;
-use crate::store::ids::{AssignmentId, ItemId};
+use crate::store::ids::AssignmentId;
 
 /// SplitMix64's finaliser: spreads nearby inputs (seed, seed + 1, …) over the whole range.
 fn mix(mut z: u64) -> u64 {
@@ -47,22 +43,18 @@ pub fn condition_at(seed: u64, seq: u64) -> Condition {
     }
 }
 
-/// Condition B's order: the same matches as condition A, shuffled with a generator seeded by
-/// the study's seed, the assignment and the query, so the same query of the same worker shows
-/// the same list again (reproducible) while different workers see different orders.
-pub fn random_order(
-    seed: u64,
-    assignment: AssignmentId,
-    q: &str,
-    category: Option<&str>,
-    ids: &mut [ItemId],
-) {
-    // The category is keyed apart from the text (a NUL cannot be typed into either).
-    let key = format!("{q}\u{0}{}", category.unwrap_or(""));
-    let stream = mix(seed) ^ mix(assignment.0 as u64) ^ text_key(&key);
-    // Shuffle a sorted copy, so the order does not depend on the order the matches came in.
-    ids.sort_unstable();
-    ids.shuffle(&mut ChaCha8Rng::seed_from_u64(stream));
+/// The seed of condition B's order for one search (`learner::search::Query::shuffle`): drawn
+/// from the study's seed, the assignment and the query, so the same query of the same worker
+/// shows the same list again (reproducible) while different workers and queries see different
+/// orders. `q` and `category` as the search reads them (trimmed; `None` for no category).
+pub fn shuffle_seed(seed: u64, assignment: AssignmentId, q: &str, category: Option<&str>) -> u64 {
+    // The category is keyed apart from the text (a NUL cannot be typed into either); "no
+    // category" differs from every category.
+    let key = match category {
+        Some(c) => format!("{q}\u{0}{c}"),
+        None => format!("{q}\u{0}\u{0}"),
+    };
+    mix(seed) ^ mix(assignment.0 as u64).rotate_left(21) ^ text_key(&key)
 }
 
 #[cfg(test)]
@@ -92,25 +84,19 @@ mod tests {
     }
 
     #[test]
-    fn random_order_is_a_reproducible_permutation_per_worker_and_query() {
-        let original: Vec<ItemId> = (1..=60).map(ItemId).collect();
-        let order = |assignment: i64, q: &str, input: &[ItemId]| {
-            let mut ids = input.to_vec();
-            random_order(7, AssignmentId(assignment), q, Some("animals"), &mut ids);
-            ids
-        };
-        let a = order(10, "cat", &original);
-        let mut sorted = a.clone();
-        sorted.sort();
-        assert_eq!(sorted, original, "not a permutation");
-        assert_ne!(a, original, "left in the original order");
-        // The same query again, even from a reversed input: the same list.
-        let reversed: Vec<ItemId> = original.iter().rev().copied().collect();
-        assert_eq!(order(10, "cat", &reversed), a);
-        assert_ne!(order(11, "cat", &original), a, "another worker, same order");
-        assert_ne!(order(10, "dog", &original), a, "another query, same order");
-        let mut no_category = original.clone();
-        random_order(7, AssignmentId(10), "cat", None, &mut no_category);
-        assert_ne!(no_category, a);
+    fn shuffle_seeds_differ_per_worker_query_and_category_and_repeat() {
+        let s = |seed, a, q: &str, c: Option<&str>| shuffle_seed(seed, AssignmentId(a), q, c);
+        let base = s(7, 10, "cat", Some("animals"));
+        assert_eq!(base, s(7, 10, "cat", Some("animals")));
+        for other in [
+            s(8, 10, "cat", Some("animals")),
+            s(7, 11, "cat", Some("animals")),
+            s(7, 10, "dog", Some("animals")),
+            s(7, 10, "cat", None),
+            s(7, 10, "cat", Some("")),
+            s(7, 10, "cat\u{0}animals", None),
+        ] {
+            assert_ne!(base, other);
+        }
     }
 }

@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{AppError, Result};
 use crate::mashup::backgrounds;
 
-pub use conditions::{condition_at, random_order};
+pub use conditions::{condition_at, shuffle_seed};
 pub use report::{ConditionReport, MashupReport, summarise};
 
 /// Longest task text, in characters.
