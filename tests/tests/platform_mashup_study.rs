@@ -444,6 +444,15 @@ async fn mashup_study(db: TestDb) {
         assert!((got("mean") - want.mean).abs() < 1e-12, "{r}");
         assert!((got("half_width") - want.half_width).abs() < 1e-9, "{r}");
         assert!((got("low") - want.low).abs() < 1e-9 && (got("high") - want.high).abs() < 1e-9);
+        // The study page shows the same figures.
+        let page = admin_text(&c, &format!("{base}/admin/studies/{study}"), &cookie).await;
+        let row = page
+            .split(&format!("id=\"mashup-condition-{condition}\""))
+            .nth(1)
+            .and_then(|rest| rest.split("</tr>").next())
+            .unwrap_or_else(|| panic!("no row for {condition} on the page"));
+        let shown = format!("{:.1} ± {:.1}", want.mean, want.half_width);
+        assert!(row.contains(&shown), "{shown} not in {row}");
     }
 }
 
