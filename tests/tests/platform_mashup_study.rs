@@ -457,3 +457,194 @@ async fn mashup_study(db: TestDb) {
 }
 
 both_databases!(mashup_study, mashup_study_sqlite, mashup_study_postgres);
+
+/// A worker in each condition does a mash-up HIT in real Chromium: the task page, two pieces
+/// dragged from the results (the second after the page re-searched), Submit, the end page with
+/// the completion code; the logged positions are those of the lists the server returned, and
+/// the stored composition has the two pieces on the fixed background.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn mashup_hit_in_chromium() {
+    use crate::platform_mashup_browser::{
+        click, document, drag, ids_shown, on_canvas, result_centre, until,
+    };
+    use e2e::browser::*;
+    use fantoccini::Locator;
+
+    let profile = tempfile::tempdir().expect("profile dir");
+    let Some((driver, c)) = browser(profile.path(), Viewport::Desktop).await else {
+        return;
+    };
+    let db = sqlite_db();
+    let lib = small_library(3);
+    let (lib_path, labels) = (
+        lib.path().to_string_lossy().into_owned(),
+        lib.path().join("labels.csv").to_string_lossy().into_owned(),
+    );
+    platform_ok(
+        &[
+            "library",
+            "import",
+            "--database-url",
+            &db.url,
+            "--name",
+            "fx",
+            "--labels",
+            &labels,
+            &lib_path,
+        ],
+        &[],
+    );
+    let out = platform_ok(
+        &[
+            "study",
+            "create",
+            "--database-url",
+            &db.url,
+            "--name",
+            "picnic",
+            "--library",
+            "fx",
+            "--kind",
+            "mashup",
+            "--task",
+            "A picnic by the lake",
+            "--background",
+            "grass",
+            "--min-pieces",
+            "2",
+            "--tuples",
+            "2",
+        ],
+        &[],
+    );
+    let study: i64 = out
+        .split_whitespace()
+        .nth(1)
+        .and_then(|id| id.trim_end_matches(':').parse().ok())
+        .expect("study id");
+    let server = Server::start(&db.url);
+    let http = client();
+    let base = server.url("");
+    let base = base.trim_end_matches('/');
+
+    let mut seen = Vec::new();
+    for w in 0..2 {
+        let token = start_worker(&http, base, study, &format!("c{w}")).await;
+        c.goto(&server.url(&format!("/a/{token}")))
+            .await
+            .expect("task page");
+        let task = c
+            .find(Locator::Id("mashup-task"))
+            .await
+            .expect("task")
+            .text()
+            .await
+            .expect("text");
+        assert_eq!(task, "A picnic by the lake");
+        until(
+            &c,
+            "the first results",
+            "return document.getElementById('mashup').dataset.searchSeq === '1';",
+        )
+        .await;
+        let first = ids_shown(&c).await;
+        assert_eq!(first.len(), 12, "{first:?}");
+        // The fixed background: no drop-down.
+        let bg = c
+            .find(Locator::Id("mashup-background-label"))
+            .await
+            .expect("bg");
+        assert!(!bg.is_displayed().await.expect("shown"));
+        let summary = c
+            .find(Locator::Id("mashup-summary"))
+            .await
+            .expect("summary")
+            .text()
+            .await
+            .expect("text");
+        assert_eq!(
+            summary, "12 of 12 matching items.",
+            "the summary names the order"
+        );
+
+        // Position 2 of the first list, then position 4 of the list the page shows next.
+        drag(
+            &c,
+            result_centre(&c, 1).await,
+            on_canvas(&c, 250.0, 300.0).await,
+        )
+        .await;
+        until(
+            &c,
+            "the re-search",
+            "return document.getElementById('mashup').dataset.searchSeq === '2';",
+        )
+        .await;
+        let second = ids_shown(&c).await;
+        drag(
+            &c,
+            result_centre(&c, 3).await,
+            on_canvas(&c, 500.0, 300.0).await,
+        )
+        .await;
+        until(
+            &c,
+            "the second re-search",
+            "return document.getElementById('mashup').dataset.searchSeq === '3';",
+        )
+        .await;
+        let doc = document(&c).await;
+        let items: Vec<i64> = doc["pieces"]
+            .as_array()
+            .expect("pieces")
+            .iter()
+            .map(|p| p["item"].as_i64().unwrap())
+            .collect();
+        assert_eq!(items, vec![first[1], second[3]], "{doc}");
+
+        mark(&c).await;
+        click(&c, "mashup-submit").await;
+        wait_navigated(&c).await;
+        let code = c
+            .find(Locator::Id("code"))
+            .await
+            .expect("completion code")
+            .text()
+            .await
+            .expect("text");
+        assert!(!code.is_empty());
+        let violations = csp_violations(&c, &driver).await;
+        assert!(violations.is_empty(), "{violations:?}");
+        seen.push((token, first, second));
+    }
+
+    let cond = conditions(&db.url).await;
+    let mut both: Vec<&String> = cond.values().collect();
+    both.sort();
+    assert_eq!(both, ["A", "B"], "one worker per condition");
+    let (adds, lists) = stored_log(&db.url).await;
+    for (token, first, second) in &seen {
+        assert_eq!(
+            adds[token],
+            vec![(1, first[1], 2), (2, second[3], 4)],
+            "{}",
+            cond[token]
+        );
+        assert_eq!(&lists[&(token.clone(), 1)], first);
+        assert_eq!(&lists[&(token.clone(), 2)], second);
+    }
+    let done = scalar(
+        &db.url,
+        "SELECT CAST(COUNT(*) AS BIGINT) FROM assignments WHERE status = 'completed'",
+    )
+    .await;
+    assert_eq!(done, 2);
+    let stored = rows(&db.url, "SELECT document FROM compositions").await;
+    assert_eq!(stored.len(), 2);
+    for r in stored {
+        use sqlx::Row;
+        let doc: Value = serde_json::from_str(&r.get::<String, _>("document")).expect("json");
+        assert_eq!(doc["background"], "grass");
+        assert_eq!(doc["pieces"].as_array().map(Vec::len), Some(2));
+    }
+}

@@ -56,8 +56,7 @@ pub struct WorkerSearchQuery {
     /// Only items with this style label.
     #[param(max_length = 200)]
     pub category: Option<String>,
-    /// Comma-separated ids of the items on the canvas (each must have been added from a
-    /// result list of this assignment).
+    /// Comma-separated ids of the items on the canvas (items of the study's library).
     pub near: Option<String>,
     /// Results wanted (1–200, default 48).
     #[param(minimum = 1, maximum = 200)]
@@ -143,8 +142,8 @@ pub(super) async fn mashup_task(
 #[utoipa::path(get, path = "/api/v1/assignments/{token}/mashup/search",
     params(("token" = String, Path), WorkerSearchQuery),
     responses((status = 200, body = WorkerSearchAnswer),
-              (status = 400, description = "A bad field, or a canvas item never added from \
-                  this assignment's results", body = ErrorBody),
+              (status = 400, description = "A bad field, or a canvas item not in the study's \
+                  library", body = ErrorBody),
               (status = 404, description = "No assignment has this token, or its study is not a \
                   mash-up study", body = ErrorBody),
               (status = 409, description = "The assignment is not composing, or the library \
@@ -157,19 +156,16 @@ pub(super) async fn mashup_search(
     let (a, s, _) = mashup_of(&state, &token).await?;
     active(&a)?;
     let condition = log::assign_condition(&state.db, s.id, s.settings.seed, a.id).await?;
-    // The canvas items must come from this worker's own result lists.
+    // The canvas items, as the page sends them. They are not checked against the log: the
+    // page searches again as soon as a piece lands, concurrently with logging its add, and
+    // ordering condition A by any item of the library harms nothing (the search refuses items
+    // of other libraries; condition B ignores them).
     let mut near: Vec<ItemId> = Vec::new();
     if let Some(text) = query.near.as_deref().filter(|t| !t.trim().is_empty()) {
-        let canvas = log::replay(&log::events(&state.db, a.id).await?);
         for part in text.split(',').map(str::trim) {
             let id: ItemId = part
                 .parse()
                 .map_err(|_| AppError::BadRequest("near: item ids separated by commas".into()))?;
-            if !canvas.all.contains_key(&id) {
-                return Err(AppError::BadRequest(format!(
-                    "near: item {id} was never added from this task's results"
-                )));
-            }
             if !near.contains(&id) {
                 near.push(id);
             }
