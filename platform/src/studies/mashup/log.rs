@@ -14,7 +14,7 @@ use sqlx::Row;
 
 use super::{Condition, condition_at};
 use crate::error::{AppError, Result};
-use crate::store::db::{Db, now_ms};
+use crate::store::db::{Backend, Db, now_ms};
 use crate::store::ids::{AssignmentId, ItemId, StudyId};
 
 /// Longest logged query text, in characters (longer searches are refused before they run).
@@ -145,6 +145,34 @@ pub fn positions(pieces: &[ItemId], canvas: &Canvas) -> Result<Vec<i64>> {
     Ok(out)
 }
 
+/// On PostgreSQL, locks the row `id` of `table` for the rest of the transaction, so that
+/// writers numbering rows under it (`MAX(seq) + 1`) take turns; SQLite's `BEGIN IMMEDIATE`
+/// (`Db::begin_write`) already serialises every writer.
+pub(super) async fn lock_row(
+    tx: &mut sqlx::AnyConnection,
+    backend: Backend,
+    table: Locked,
+    id: i64,
+) -> Result<()> {
+    if backend == Backend::Postgres {
+        let sql = match table {
+            Locked::Assignment => "SELECT id FROM assignments WHERE id = $1 FOR UPDATE",
+            Locked::Study => "SELECT id FROM studies WHERE id = $1 FOR UPDATE",
+        };
+        sqlx::query(sql).bind(id).fetch_optional(&mut *tx).await?;
+    }
+    Ok(())
+}
+
+/// The rows [`lock_row`] locks.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Locked {
+    /// `assignments`: its searches, events and submission are numbered or checked under it.
+    Assignment,
+    /// `studies`: its conditions are numbered under it.
+    Study,
+}
+
 /// The condition of `assignment`, drawing it (the study's next place in its balanced sequence,
 /// [`condition_at`]) on the first call.
 pub async fn assign_condition(
@@ -157,6 +185,7 @@ pub async fn assign_condition(
         return Ok(c);
     }
     let mut tx = db.begin_write().await?;
+    lock_row(&mut tx, db.backend, Locked::Study, study.0).await?;
     // Re-read inside the write transaction: another request of the same worker may have won.
     let existing = sqlx::query("SELECT condition FROM mashup_conditions WHERE assignment_id = $1")
         .bind(assignment.0)
@@ -210,6 +239,7 @@ pub async fn record_search(
     let q = q.trim();
     let category = category.map(str::trim).filter(|c| !c.is_empty());
     let mut tx = db.begin_write().await?;
+    lock_row(&mut tx, db.backend, Locked::Assignment, assignment.0).await?;
     let seq: i64 = sqlx::query(
         "SELECT COALESCE(MAX(seq), 0) + 1 AS next FROM mashup_searches WHERE assignment_id = $1",
     )
@@ -254,13 +284,13 @@ pub async fn search_results(
 
 /// The number of searches `assignment` made.
 pub async fn search_count(db: &Db, assignment: AssignmentId) -> Result<i64> {
-    Ok(
-        sqlx::query("SELECT COUNT(*) AS n FROM mashup_searches WHERE assignment_id = $1")
-            .bind(assignment.0)
-            .fetch_one(&db.pool)
-            .await?
-            .try_get("n")?,
+    Ok(sqlx::query(
+        "SELECT CAST(COUNT(*) AS BIGINT) AS n FROM mashup_searches WHERE assignment_id = $1",
     )
+    .bind(assignment.0)
+    .fetch_one(&db.pool)
+    .await?
+    .try_get("n")?)
 }
 
 /// The adds and removes of `assignment`, in order.
@@ -338,6 +368,7 @@ pub async fn record_event(db: &Db, assignment: AssignmentId, event: &Event) -> R
         }
     };
     let mut tx = db.begin_write().await?;
+    lock_row(&mut tx, db.backend, Locked::Assignment, assignment.0).await?;
     let seq: i64 = sqlx::query(
         "SELECT COALESCE(MAX(seq), 0) + 1 AS next FROM mashup_events WHERE assignment_id = $1",
     )

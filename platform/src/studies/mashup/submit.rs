@@ -60,6 +60,7 @@ pub async fn submit(
     let id = CompositionId::generate();
     let now = now_ms();
     let mut tx = db.begin_write().await?;
+    log::lock_row(&mut tx, db.backend, log::Locked::Assignment, assignment.0).await?;
     let done = sqlx::query("SELECT assignment_id FROM mashup_submissions WHERE assignment_id = $1")
         .bind(assignment.0)
         .fetch_optional(&mut *tx)
