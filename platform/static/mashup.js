@@ -17,6 +17,12 @@
 //   data-background  optional: a fixed background name (the drop-down is hidden)
 //   data-csrf        optional: sent as the x-csrf-token header of every POST/PUT
 //   data-max-near    most reference items of one search (default 20)
+//   data-worker      set on a worker's mash-up task (study kind `mashup`): the search URL is
+//                    the assignment's own (no library or model parameter; its answers carry the
+//                    server's search number `seq`, which events then name), and the summary
+//                    does not say how results are ordered (the worker's condition is blind)
+//   data-submit-url  optional: POST {document} submits the composition (#mashup-submit); on
+//                    success the page goes to data-done-url
 // The page's state is exposed for tests and the host page: the root's data-document (the JSON
 // document), data-selected (the selected piece's index or -1), data-search-seq, and on the
 // results list data-ids (the ids in the order shown).
@@ -184,23 +190,27 @@
   }
   async function search() {
     const all = nearIds(), near = all.slice(0, maxNear);
-    const params = new URLSearchParams({ library: cfg.library, limit: "48" });
+    const params = new URLSearchParams({ limit: "48" });
+    if (!cfg.worker) params.set("library", cfg.library);
     const q = $("mashup-q").value.trim(), category = $("mashup-category").value;
     if (q) params.set("q", q);
     if (category) params.set("category", category);
-    if ($("mashup-model").value) params.set("model", $("mashup-model").value);
+    const model = $("mashup-model");
+    if (model && model.value) params.set("model", model.value);
     if (near.length) params.set("near", near.join(","));
     const resp = await fetch(cfg.searchUrl + "?" + params, { headers: { accept: "application/json" } });
     if (!resp.ok) { showError(await errorOf(resp)); return; }
     showError("");
     const answer = await resp.json();
-    searchSeq += 1;
+    // A worker's searches are numbered by the server (responses may arrive out of order).
+    searchSeq = typeof answer.seq === "number" ? answer.seq : searchSeq + 1;
     results = answer.results;
     fillChoices($("mashup-category"), answer.categories.map((c) => [c, c]));
-    fillChoices($("mashup-model"), (answer.models || []).map((m) => [String(m.id), "model " + m.id + " (" + m.study + ")"]));
-    $("uniform-notice").hidden = !answer.uniform;
-    let summary = results.length + " of " + answer.matched + " matching items, ";
-    if (!near.length) summary += "dealt across the library's style clusters (the canvas is empty).";
+    if (model) fillChoices(model, (answer.models || []).map((m) => [String(m.id), "model " + m.id + " (" + m.study + ")"]));
+    if ($("uniform-notice")) $("uniform-notice").hidden = !answer.uniform;
+    let summary = results.length + " of " + answer.matched + " matching items" + (cfg.worker ? "." : ", ");
+    if (cfg.worker) { /* blind: no word on the order */ }
+    else if (!near.length) summary += "dealt across the library's style clusters (the canvas is empty).";
     else if (all.length > near.length) summary += "nearest in style to the " + near.length + " top-most of the " + all.length + " different items on the canvas.";
     else summary += "nearest in style to the " + near.length + " item" + (near.length > 1 ? "s" : "") + " on the canvas.";
     $("mashup-summary").textContent = summary;
@@ -380,7 +390,7 @@
   bgSelect.addEventListener("change", () => change(() => { doc.background = bgSelect.value; }));
   $("mashup-search").addEventListener("submit", (e) => { e.preventDefault(); search(); });
   $("mashup-category").addEventListener("change", search);
-  $("mashup-model").addEventListener("change", search);
+  if ($("mashup-model")) $("mashup-model").addEventListener("change", search);
   $("mashup-q").addEventListener("input", () => { clearTimeout(searchTimer); searchTimer = setTimeout(search, 300); });
   const librarySelect = $("mashup-library");
   if (librarySelect) librarySelect.addEventListener("change", () => {
@@ -460,6 +470,18 @@
     refreshSaved();
   } else {
     $("mashup-save").hidden = true;
+  }
+
+  // ---- a worker's submission ----
+  if (cfg.submitUrl) {
+    $("mashup-submit").addEventListener("click", async () => {
+      const button = $("mashup-submit");
+      button.disabled = true;
+      const resp = await fetch(cfg.submitUrl, { method: "POST", headers: headers(), body: JSON.stringify({ document: doc }) });
+      if (resp.ok) { location.href = cfg.doneUrl; return; }
+      showError(await errorOf(resp));
+      button.disabled = false;
+    });
   }
 
   bgSelect.value = doc.background;

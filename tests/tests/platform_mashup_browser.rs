@@ -46,7 +46,7 @@ fn import(db: &TestDb) {
 }
 
 /// Runs `script` until it returns true (up to 20 s).
-async fn until(c: &Client, what: &str, script: &str) {
+pub(crate) async fn until(c: &Client, what: &str, script: &str) {
     for _ in 0..800 {
         if c.execute(script, vec![])
             .await
@@ -61,13 +61,13 @@ async fn until(c: &Client, what: &str, script: &str) {
     panic!("timed out waiting for {what}");
 }
 
-async fn document(c: &Client) -> Value {
+pub(crate) async fn document(c: &Client) -> Value {
     let text = attr(c, "#mashup", "data-document").await;
     serde_json::from_str(&text).expect("data-document is JSON")
 }
 
 /// Viewport coordinates of canvas point (x, y).
-async fn on_canvas(c: &Client, x: f64, y: f64) -> (f64, f64) {
+pub(crate) async fn on_canvas(c: &Client, x: f64, y: f64) -> (f64, f64) {
     let v = c
         .execute(
             "const c = document.getElementById('mashup-canvas'), r = c.getBoundingClientRect();\
@@ -80,7 +80,7 @@ async fn on_canvas(c: &Client, x: f64, y: f64) -> (f64, f64) {
 }
 
 /// A left-button drag from one viewport point to another.
-async fn drag(c: &Client, from: (f64, f64), to: (f64, f64)) {
+pub(crate) async fn drag(c: &Client, from: (f64, f64), to: (f64, f64)) {
     let actions = MouseActions::new("mouse".into())
         .then(PointerAction::MoveTo {
             duration: None,
@@ -108,7 +108,7 @@ async fn drag(c: &Client, from: (f64, f64), to: (f64, f64)) {
 }
 
 /// Viewport centre of the result at `index` (0-based).
-async fn result_centre(c: &Client, index: usize) -> (f64, f64) {
+pub(crate) async fn result_centre(c: &Client, index: usize) -> (f64, f64) {
     let v = c
         .execute(
             "const r = document.querySelectorAll('.mashup-result')[arguments[0]].getBoundingClientRect();\
@@ -120,7 +120,7 @@ async fn result_centre(c: &Client, index: usize) -> (f64, f64) {
     (v[0].as_f64().expect("x"), v[1].as_f64().expect("y"))
 }
 
-async fn ids_shown(c: &Client) -> Vec<i64> {
+pub(crate) async fn ids_shown(c: &Client) -> Vec<i64> {
     attr(c, "#mashup-results", "data-ids")
         .await
         .split(',')
@@ -128,7 +128,7 @@ async fn ids_shown(c: &Client) -> Vec<i64> {
         .collect()
 }
 
-async fn click(c: &Client, id: &str) {
+pub(crate) async fn click(c: &Client, id: &str) {
     c.find(Locator::Id(id))
         .await
         .expect(id)

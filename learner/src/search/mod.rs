@@ -50,6 +50,8 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
 use serde::{Deserialize, Serialize};
 
 pub use diversity::{ClusterId, Diversity, DiversityInfo, Level};
@@ -306,6 +308,22 @@ impl SearchIndex {
                 .map(|(row, c)| self.hit(row, None, score_of(row), Some(c)))
                 .collect();
             (Order::Diversity, hits)
+        } else if let Some(seed) = query.shuffle {
+            // Rows in row order (keyword hits come sorted by row), then a partial
+            // Fisher–Yates of the first `limit`: the order depends on the seed and the
+            // matches only.
+            let mut rows: Vec<u32> = match &hits {
+                Some(h) => h.iter().map(|x| x.0).collect(),
+                None => (0..self.len() as u32).collect(),
+            };
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let take = query.limit.min(rows.len());
+            let (first, _) = rows.partial_shuffle(&mut rng, take);
+            let hits = first
+                .iter()
+                .map(|&row| self.hit(row, None, score_of(row), None))
+                .collect();
+            (Order::Random, hits)
         } else {
             let mut h = hits.clone().unwrap_or_default();
             let by_relevance =

@@ -26,6 +26,10 @@ pub struct Query {
     /// Without references: deal the results across style clusters (§5.7.3's empty canvas)
     /// instead of ordering by keyword relevance.
     pub diverse: bool,
+    /// Without references: the matches in a random order drawn from this seed instead of by
+    /// relevance or across clusters — the control condition of §5.7.3's mash-up study (B,
+    /// "results in random order"). The same seed and matches give the same order.
+    pub shuffle: Option<u64>,
     /// Results wanted.
     pub limit: usize,
 }
@@ -38,6 +42,7 @@ impl Default for Query {
             near: Vec::new(),
             examples: Vec::new(),
             diverse: false,
+            shuffle: None,
             limit: DEFAULT_LIMIT,
         }
     }
@@ -64,7 +69,24 @@ impl Query {
                 reason: "the diversity order is for an empty canvas; references order by style",
             });
         }
-        if self.keywords.is_none() && self.category.is_none() && !has_refs && !self.diverse {
+        if self.shuffle.is_some() && (has_refs || self.diverse) {
+            return Err(Error::InvalidParameter {
+                name: "shuffle",
+                value: if has_refs {
+                    "with reference items"
+                } else {
+                    "with diverse"
+                }
+                .into(),
+                reason: "a random order replaces the style and diversity orders",
+            });
+        }
+        if self.keywords.is_none()
+            && self.category.is_none()
+            && !has_refs
+            && !self.diverse
+            && self.shuffle.is_none()
+        {
             return Err(Error::EmptyQuery(
                 "give keywords, a category, reference items or an example, or ask for the \
                  diversity order",
@@ -89,6 +111,8 @@ pub enum Order {
     Diversity,
     /// By keyword score (BM25), then item order.
     Relevance,
+    /// In the seeded random order of [`Query::shuffle`].
+    Random,
 }
 
 /// One result.

@@ -558,3 +558,66 @@ fn bad_queries_and_libraries_are_clear_errors() {
     .unwrap_err();
     assert!(matches!(e, Error::EmptyLibrary), "{e}");
 }
+
+/// Condition B of §5.7.3's mash-up study: the same matches as the keyword search, in a random
+/// order fixed by the seed.
+#[test]
+fn shuffled_results_are_the_same_matches_in_a_seeded_order() {
+    let index = fixture_index();
+    let q = |shuffle: Option<u64>| Query {
+        keywords: Some("face".into()),
+        shuffle,
+        limit: 1000,
+        ..Query::default()
+    };
+    let relevance = index.search(&q(None)).unwrap();
+    let shuffled = index.search(&q(Some(5))).unwrap();
+    assert_eq!(shuffled.order, Order::Random);
+    assert_eq!(shuffled.matched, relevance.matched);
+    assert!(relevance.hits.len() > 10, "{}", relevance.hits.len());
+    let mut a = ids(&shuffled);
+    let mut b = ids(&relevance);
+    assert_ne!(a, b, "the random order is the relevance order");
+    assert_eq!(
+        ids(&index.search(&q(Some(5))).unwrap()),
+        a,
+        "not reproducible"
+    );
+    assert_ne!(
+        ids(&index.search(&q(Some(6))).unwrap()),
+        a,
+        "the seed is ignored"
+    );
+    a.sort_unstable();
+    b.sort_unstable();
+    assert_eq!(a, b, "not the same matches");
+    // A limit takes a prefix of the same kind of order; without keywords, all items.
+    let few = index
+        .search(&Query {
+            limit: 7,
+            ..q(Some(5))
+        })
+        .unwrap();
+    assert_eq!(few.hits.len(), 7);
+    let all = index
+        .search(&Query {
+            shuffle: Some(1),
+            limit: 5,
+            ..Query::default()
+        })
+        .unwrap();
+    assert_eq!((all.matched, all.hits.len()), (index.len(), 5));
+    // No random order beside references or the diversity order.
+    for bad in [
+        Query {
+            near: vec!["noto/cat-face.svg".into()],
+            ..q(Some(1))
+        },
+        Query {
+            diverse: true,
+            ..q(Some(1))
+        },
+    ] {
+        assert!(bad.validate().is_err(), "{bad:?}");
+    }
+}

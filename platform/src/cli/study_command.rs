@@ -8,6 +8,7 @@ use super::DbArgs;
 use crate::error::{AppError, Result};
 use crate::store::ids::StudyId;
 use crate::studies::kind::{RatingQuestion, StudyKind};
+use crate::studies::mashup::{self, MashupSettings};
 use crate::studies::study::{self, MturkMode, StudySettings};
 use crate::studies::study_edit::{self, SettingsPatch};
 use crate::studies::{dashboard, library, rating};
@@ -25,7 +26,8 @@ fn kind_defaults(kind: StudyKind) -> StudySettings {
             question: Some(RatingQuestion::Coherence),
             ..StudySettings::default()
         },
-        StudyKind::Triplet | StudyKind::Mashup => StudySettings::default(),
+        StudyKind::Mashup => mashup::pool::defaults(None),
+        StudyKind::Triplet => StudySettings::default(),
     }
 }
 
@@ -104,6 +106,18 @@ pub enum StudyCommand {
         /// or `preference` ("Which composition do you like better?").
         #[arg(long, value_parser = ["coherence", "preference"])]
         question: Option<String>,
+        /// mashup: the task shown above the canvas (an open topic or a fixed story).
+        #[arg(long)]
+        task: Option<String>,
+        /// mashup: a fixed background (`blank`, `grass`, …); without it the worker chooses.
+        #[arg(long)]
+        background: Option<String>,
+        /// mashup: pieces the submitted composition must have (default 3).
+        #[arg(long)]
+        min_pieces: Option<u32>,
+        /// mashup: searches the worker must make before submitting (default 1).
+        #[arg(long)]
+        min_searches: Option<u32>,
     },
     /// Change a study's settings (each change is audited). Fields that only steer what happens
     /// next change at any time; the HIT shape and the MTurk site only while the study has no
@@ -195,6 +209,10 @@ pub async fn run(command: StudyCommand) -> Result<()> {
             compositions,
             pairs,
             question,
+            task,
+            background,
+            min_pieces,
+            min_searches,
         } => {
             let kind = StudyKind::parse(&kind)?;
             let db = db.connect().await?;
@@ -243,6 +261,35 @@ pub async fn run(command: StudyCommand) -> Result<()> {
                     MturkMode::Sandbox
                 };
             }
+            let mashup_flags = task.is_some()
+                || background.is_some()
+                || min_pieces.is_some()
+                || min_searches.is_some();
+            if mashup_flags && kind != StudyKind::Mashup {
+                return Err(AppError::BadRequest(
+                    "--task, --background, --min-pieces and --min-searches are for --kind mashup"
+                        .into(),
+                ));
+            }
+            if kind == StudyKind::Mashup {
+                // The flags over the file's `mashup` object (a task from either is needed).
+                let mut m = s.mashup.take();
+                if let Some(task) = task {
+                    m.get_or_insert_with(|| MashupSettings {
+                        task: String::new(),
+                        background: None,
+                        min_pieces: 3,
+                        min_searches: 1,
+                    })
+                    .task = task;
+                }
+                if let Some(m) = m.as_mut() {
+                    m.background = background.or(m.background.take());
+                    m.min_pieces = min_pieces.unwrap_or(m.min_pieces);
+                    m.min_searches = min_searches.unwrap_or(m.min_searches);
+                }
+                s.mashup = m;
+            }
             let pending = match kind {
                 StudyKind::Triplet => {
                     let library = library::ensure_existing(&db, &lib).await?;
@@ -258,11 +305,13 @@ pub async fn run(command: StudyCommand) -> Result<()> {
                     rating_pool(&db, &name, &lib, &folder, &csv, s).await?
                 }
                 StudyKind::Mashup => {
-                    return Err(AppError::BadRequest(
-                        "kind mashup: mash-up studies cannot be created yet (their server side is still to \
-                         come, issue 17)"
-                            .into(),
-                    ));
+                    let library = library::ensure_existing(&db, &lib).await?;
+                    let first = library::list_items(&db, library)
+                        .await?
+                        .first()
+                        .map(|i| i.id);
+                    let pool = mashup::pool::draw(&s, first)?;
+                    study::begin_drawn(&db, &name, library, kind, s, pool).await?
                 }
             };
             let (id, warnings) = (pending.id, pending.warnings.clone());

@@ -190,5 +190,20 @@ pub async fn study_of(db: &Db, a: &Assignment) -> Result<Study> {
     study::load(db, a.study).await
 }
 
+/// The kind of the study of the assignment `token` (`None`: no such assignment).
+pub async fn kind_of_token(db: &Db, token: &str) -> Result<Option<StudyKind>> {
+    if !valid_token(token) {
+        return Ok(None);
+    }
+    let row = sqlx::query(
+        "SELECT s.kind FROM assignments a JOIN studies s ON s.id = a.study_id WHERE a.token = $1",
+    )
+    .bind(token)
+    .fetch_optional(&db.pool)
+    .await?;
+    row.map(|r| StudyKind::parse(&r.try_get::<String, _>("kind")?))
+        .transpose()
+}
+
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

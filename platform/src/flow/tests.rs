@@ -44,7 +44,7 @@ fn external_ids_are_restricted() {
 
 /// A fresh SQLite file, and a fresh PostgreSQL database when `TEST_POSTGRES_URL` names a
 /// server (`scripts/test` starts one; CI must have it).
-async fn databases() -> Vec<(Db, Option<tempfile::TempDir>)> {
+pub(crate) async fn databases() -> Vec<(Db, Option<tempfile::TempDir>)> {
     let dir = tempfile::tempdir().expect("temp dir");
     let url = format!("sqlite://{}", dir.path().join("f.db").display());
     let mut dbs = vec![(Db::connect(&url, 4).await.expect("sqlite"), Some(dir))];

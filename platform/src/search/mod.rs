@@ -61,6 +61,8 @@ pub enum SearchOrder {
     Style,
     /// Dealt across the library's style clusters (no reference item).
     Diversity,
+    /// In a seeded random order (condition B of the mash-up study, §5.7.3).
+    Random,
 }
 
 /// One result.
@@ -120,6 +122,25 @@ pub async fn run_with_examples(
     state: &AppState,
     req: &SearchRequest,
     examples: Vec<Vec<f64>>,
+) -> Result<SearchAnswer> {
+    run_ordered(state, req, examples, None).await
+}
+
+/// [`run`] with the keyword and category matches in the random order drawn from `seed`
+/// (condition B of the mash-up study, §5.7.3); `near` must be empty.
+pub async fn run_shuffled(
+    state: &AppState,
+    req: &SearchRequest,
+    seed: u64,
+) -> Result<SearchAnswer> {
+    run_ordered(state, req, Vec::new(), Some(seed)).await
+}
+
+async fn run_ordered(
+    state: &AppState,
+    req: &SearchRequest,
+    examples: Vec<Vec<f64>>,
+    shuffle: Option<u64>,
 ) -> Result<SearchAnswer> {
     let text = |name: &str, value: &Option<String>| -> Result<Option<String>> {
         match value.as_deref().map(str::trim) {
@@ -200,7 +221,8 @@ pub async fn run_with_examples(
         category,
         near: near_names,
         examples,
-        diverse,
+        diverse: diverse && shuffle.is_none(),
+        shuffle,
         limit: limit as usize,
     };
     // The engine's refusals (keywords with no searchable word…) are the request's fault.
@@ -237,6 +259,7 @@ pub async fn run_with_examples(
         order: match found.order {
             Order::Style => SearchOrder::Style,
             Order::Diversity | Order::Relevance => SearchOrder::Diversity,
+            Order::Random => SearchOrder::Random,
         },
         matched: found.matched,
         results,

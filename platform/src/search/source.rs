@@ -45,6 +45,16 @@ pub async fn library_by_name(db: &Db, name: &str) -> Result<LibraryId> {
     Ok(LibraryId(row.try_get("id")?))
 }
 
+/// The name of library `id` (the search API names libraries).
+pub async fn library_name(db: &Db, id: LibraryId) -> Result<String> {
+    let row = sqlx::query("SELECT name FROM libraries WHERE id = $1")
+        .bind(id.0)
+        .fetch_optional(&db.pool)
+        .await?
+        .ok_or(AppError::NotFound("library"))?;
+    Ok(row.try_get("name")?)
+}
+
 /// The current [`LibraryVersion`] of a library (a read of the whole library's index).
 pub async fn version(db: &Db, library: LibraryId) -> Result<LibraryVersion> {
     let row = sqlx::query(

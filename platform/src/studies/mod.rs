@@ -8,6 +8,7 @@ pub mod export;
 pub mod kind;
 pub mod library;
 pub mod markdown;
+pub mod mashup;
 pub mod rating;
 pub mod report;
 pub mod study;

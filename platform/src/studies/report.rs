@@ -1,12 +1,14 @@
 //! What a study's answers say, per kind: a triplet study is summarised by its dashboard and
 //! trained into a metric (`dashboard`, `train`); a composition rating by the preference rate
-//! for the style-sorted condition and its t-test (`rating`).
+//! for the style-sorted condition and its t-test (`rating`); a mash-up study by the mean
+//! position of the pieces used per condition (`mashup`).
 
 use serde::Serialize;
 
 use crate::error::Result;
 use crate::store::db::Db;
 use crate::studies::kind::StudyKind;
+use crate::studies::mashup::{self, MashupReport};
 use crate::studies::rating::{self, RatingReport};
 use crate::studies::study::Study;
 
@@ -18,8 +20,8 @@ pub enum StudyReport {
     Triplet,
     /// The 2AFC report.
     CompositionRating(RatingReport),
-    /// Mash-up studies: not summarised yet.
-    Mashup,
+    /// The mean position of the pieces used, per condition.
+    Mashup(MashupReport),
 }
 
 /// The report of `study`.
@@ -29,6 +31,6 @@ pub async fn report(db: &Db, study: &Study) -> Result<StudyReport> {
         StudyKind::CompositionRating => {
             StudyReport::CompositionRating(rating::report(db, study).await?)
         }
-        StudyKind::Mashup => StudyReport::Mashup,
+        StudyKind::Mashup => StudyReport::Mashup(mashup::report::report(db, study.id).await?),
     })
 }

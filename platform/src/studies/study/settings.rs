@@ -102,6 +102,10 @@ pub struct StudySettings {
     /// the other kinds.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub question: Option<crate::studies::kind::RatingQuestion>,
+    /// What a mash-up study asks (task, background, minimum pieces and searches); absent for
+    /// the other kinds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mashup: Option<crate::studies::mashup::MashupSettings>,
     /// Seed of the tuple generation (below 2^53, so JavaScript reads it exactly).
     #[schema(minimum = 0, maximum = 9_007_199_254_740_991_u64)]
     pub seed: u64,
@@ -144,6 +148,7 @@ impl Default for StudySettings {
             blocked_workers: Vec::new(),
             exclude_workers_of: Vec::new(),
             question: None,
+            mashup: None,
             seed: 1,
         }
     }
@@ -178,6 +183,9 @@ impl StudySettings {
                 "controls_per_hit: {} must be below questions_per_hit {}",
                 self.controls_per_hit, self.questions_per_hit
             ));
+        }
+        if let Some(m) = &self.mashup {
+            m.validate()?;
         }
         if self.training_questions > 20 {
             return bad(format!(

@@ -10,7 +10,8 @@ use utoipa::openapi::{ContentBuilder, Ref, RefOr, ResponseBuilder};
 use utoipa::{Modify, OpenApi};
 
 use super::{
-    OkBody, admin, compositions, models, quality, schema, search, settings, worker, workers,
+    OkBody, admin, compositions, mashup_worker, models, quality, schema, search, settings, worker,
+    workers,
 };
 use crate::error::ErrorBody;
 
@@ -27,6 +28,10 @@ use crate::error::ErrorBody;
         worker::give_up,
         worker::answer,
         worker::reasons,
+        mashup_worker::mashup_task,
+        mashup_worker::mashup_search,
+        mashup_worker::mashup_event,
+        mashup_worker::mashup_submit,
         admin::admin_session,
         admin::admin_studies,
         admin::admin_create_study,

@@ -22,6 +22,7 @@ use crate::error::ErrorBody;
 mod admin;
 pub mod compositions;
 mod document;
+mod mashup_worker;
 mod models;
 pub mod quality;
 pub mod schema;
@@ -58,6 +59,22 @@ pub fn routes() -> Router<AppState> {
         .route("/api/v1/assignments/{token}/training", post(training))
         .route("/api/v1/assignments/{token}/give-up", post(give_up))
         .route("/api/v1/assignments/{token}/answers", post(answer))
+        .route(
+            "/api/v1/assignments/{token}/mashup",
+            get(mashup_worker::mashup_task),
+        )
+        .route(
+            "/api/v1/assignments/{token}/mashup/search",
+            get(mashup_worker::mashup_search),
+        )
+        .route(
+            "/api/v1/assignments/{token}/mashup/events",
+            post(mashup_worker::mashup_event),
+        )
+        .route(
+            "/api/v1/assignments/{token}/mashup/submit",
+            post(mashup_worker::mashup_submit),
+        )
         .route("/api/v1/assignments/{token}/reasons", post(reasons))
         .route("/api/v1/admin/session", get(admin_session))
         .route(

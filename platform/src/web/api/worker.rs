@@ -15,6 +15,7 @@ use crate::flow::{
     TrainingAnswer, TrainingResult,
 };
 use crate::store::ids::StudyId;
+use crate::studies::kind::StudyKind;
 use crate::studies::study::{self, MturkMode};
 use crate::web::extract::{ApiJson, ApiPath};
 
@@ -159,13 +160,21 @@ pub(super) async fn give_up(
                   or an invalid field", body = ErrorBody),
               (status = 404, description = "No assignment has this token, or it has no question at \
                   this position", body = ErrorBody),
-              (status = 409, description = "The assignment is not answering questions, or the \
-                  question was answered differently", body = ErrorBody)))]
+              (status = 409, description = "The assignment is not answering questions, the \
+                  question was answered differently, or the study is a mash-up study (its HIT \
+                  ends with /mashup/submit)", body = ErrorBody)))]
 pub(super) async fn answer(
     State(state): State<AppState>,
     ApiPath(token): ApiPath<String>,
     ApiJson(req): ApiJson<AnswerRequest>,
 ) -> Result<Json<AnswerAck>> {
+    // A mash-up HIT's one question stands for the composition: only a checked submission
+    // answers it.
+    if flow::kind_of_token(&state.db, &token).await? == Some(StudyKind::Mashup) {
+        return Err(AppError::Conflict(
+            "a mash-up task ends by submitting the composition (/mashup/submit)".into(),
+        ));
+    }
     Ok(Json(flow::answer(&state.db, &token, &req).await?))
 }
 

@@ -31,10 +31,22 @@ struct MashupForm {
 }
 
 /// A background of the drop-down, with its image URL (empty for blank).
-struct BackgroundChoice {
-    name: &'static str,
-    label: &'static str,
-    url: String,
+pub(super) struct BackgroundChoice {
+    pub(super) name: &'static str,
+    pub(super) label: &'static str,
+    pub(super) url: String,
+}
+
+/// Every background, as the canvas's drop-down offers them.
+pub(super) fn background_choices() -> Vec<BackgroundChoice> {
+    BACKGROUNDS
+        .iter()
+        .map(|b| BackgroundChoice {
+            name: b.name,
+            label: b.label,
+            url: b.asset_name().map(|a| assets::url(&a)).unwrap_or_default(),
+        })
+        .collect()
 }
 
 #[derive(Template)]
@@ -66,14 +78,7 @@ async fn mashup_page(
             render(&MashupPage {
                 libraries: names.iter().map(|n| (n.clone(), *n == chosen)).collect(),
                 library: chosen,
-                backgrounds: BACKGROUNDS
-                    .iter()
-                    .map(|b| BackgroundChoice {
-                        name: b.name,
-                        label: b.label,
-                        url: b.asset_name().map(|a| assets::url(&a)).unwrap_or_default(),
-                    })
-                    .collect(),
+                backgrounds: background_choices(),
                 csrf: admin.csrf,
                 max_near: MAX_NEAR,
                 script: assets::url("mashup.js"),

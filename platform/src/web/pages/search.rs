@@ -222,6 +222,7 @@ pub(super) fn page_of(
         match answer.order {
             SearchOrder::Style => "nearest in style first",
             SearchOrder::Diversity => "dealt across the library's style clusters",
+            SearchOrder::Random => "in random order",
         },
         metric
     );

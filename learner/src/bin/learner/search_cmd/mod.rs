@@ -176,6 +176,7 @@ pub fn run_search(a: &SearchArgs) -> Result<()> {
         near: a.near.clone(),
         examples: Vec::new(),
         diverse: a.diverse,
+        shuffle: None,
         limit: a.limit,
     };
     let mut check = query.clone();

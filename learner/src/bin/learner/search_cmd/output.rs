@@ -79,6 +79,7 @@ pub(super) fn print_table(results: &SearchResults, query: &Query) -> Result<()> 
         Order::Style => format!("by mean style distance to the {refs} references"),
         Order::Diversity => "dealt across style clusters".to_string(),
         Order::Relevance => "by keyword relevance".to_string(),
+        Order::Random => "in a seeded random order".to_string(),
     };
     eprintln!(
         "{} matched, first {} {order}",

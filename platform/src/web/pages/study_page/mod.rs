@@ -79,6 +79,8 @@ struct AdminStudy {
     pool: pool::PoolView,
     /// A composition-rating study's report (the preference rate and its t-test).
     rating: Option<crate::studies::rating::RatingReport>,
+    /// A mash-up study's report (mean position per condition).
+    mashup: Option<crate::studies::mashup::MashupReport>,
     d: dashboard::Dashboard,
     rejection_rate: String,
     agreement: String,
@@ -265,6 +267,7 @@ async fn study_page(state: &AppState, admin: &Admin, id: StudyId, view: View) ->
             .threshold
             .unwrap_or_else(|| s.settings.reject_at_control_errors.to_string()),
     };
+    let report = crate::studies::report::report(&state.db, &s).await?;
     render(&AdminStudy {
         id,
         name: s.name.clone(),
@@ -275,8 +278,12 @@ async fn study_page(state: &AppState, admin: &Admin, id: StudyId, view: View) ->
             state.settings.public_url.trim_end_matches('/')
         ),
         pool: pool::PoolView::of(&state.db, &s).await?,
-        rating: match crate::studies::report::report(&state.db, &s).await? {
-            crate::studies::report::StudyReport::CompositionRating(r) => Some(r),
+        rating: match &report {
+            crate::studies::report::StudyReport::CompositionRating(r) => Some(r.clone()),
+            _ => None,
+        },
+        mashup: match report {
+            crate::studies::report::StudyReport::Mashup(m) => Some(m),
             _ => None,
         },
         rejection_rate: fmt_opt(d.rejection_rate),

@@ -9,6 +9,7 @@ use axum::routing::{get, post};
 use crate::AppState;
 
 mod done;
+mod mashup;
 mod start;
 mod task;
 

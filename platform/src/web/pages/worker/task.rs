@@ -10,6 +10,7 @@ use crate::AppState;
 use crate::error::{AppError, Result};
 use crate::flow::{self, ItemRef, QuestionView, TrainingReview};
 use crate::store::ids::ItemId;
+use crate::studies::kind::StudyKind;
 use crate::web::extract::{ApiForm, ApiPath};
 use crate::web::pages::{page, render};
 
@@ -109,6 +110,11 @@ async fn show_assignment(state: &AppState, token: &str) -> Result<Response> {
             groups,
         });
     }
+    // A mash-up HIT's one question stands for the composition: the canvas instead.
+    if let (Some(_), StudyKind::Mashup, Some(m)) = (&st.question, s.kind, s.settings.mashup) {
+        let library = crate::search::source::library_name(&state.db, s.library).await?;
+        return super::mashup::render_task(token, sandbox, library, m);
+    }
     if let Some(q) = st.question {
         return render(&QuestionPage {
             token: token.to_string(),
@@ -188,6 +194,11 @@ pub(super) async fn answer_submit(
     page(
         async {
             let ApiForm(f) = form?;
+            if flow::kind_of_token(&state.db, &token).await? == Some(StudyKind::Mashup) {
+                return Err(AppError::Conflict(
+                    "a mash-up task ends by submitting the composition".into(),
+                ));
+            }
             let req = flow::AnswerRequest {
                 position: f.position,
                 choice: f.choice,
