@@ -4,6 +4,7 @@
 
 use std::collections::HashMap;
 use std::io::{BufRead, BufReader};
+use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::mpsc;
 use std::time::Duration;
@@ -178,11 +179,9 @@ impl Default for StudyOpts {
 /// The admin password the tests use.
 pub const ADMIN_PASSWORD: &str = "correct horse battery staple";
 
-/// Imports a small library, creates a study and an admin; returns the study id.
-pub fn setup_study(db: &TestDb, opts: &StudyOpts) -> i64 {
-    let lib = small_library(6);
-    let lib_path = lib.path().to_string_lossy().into_owned();
-    let labels = lib.path().join("labels.csv").to_string_lossy().into_owned();
+/// Imports the library folder `dir` (its items, labelled by `dir/labels.csv`) as `fx`.
+pub fn import_library(db: &TestDb, dir: &Path) {
+    let labels = dir.join("labels.csv").to_string_lossy().into_owned();
     platform_ok(
         &[
             "library",
@@ -193,10 +192,16 @@ pub fn setup_study(db: &TestDb, opts: &StudyOpts) -> i64 {
             "fx",
             "--labels",
             &labels,
-            &lib_path,
+            &dir.to_string_lossy(),
         ],
         &[],
     );
+}
+
+/// Imports a small library, creates a study and an admin; returns the study id.
+pub fn setup_study(db: &TestDb, opts: &StudyOpts) -> i64 {
+    let lib = small_library(6);
+    import_library(db, lib.path());
     let mut settings = json!({
         "questions_per_hit": opts.questions,
         "controls_per_hit": opts.controls,

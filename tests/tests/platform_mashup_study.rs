@@ -90,24 +90,7 @@ fn composition(items: &[i64], background: &str) -> Value {
 
 async fn mashup_study(db: TestDb) {
     let lib = small_library(6);
-    let (lib_path, labels) = (
-        lib.path().to_string_lossy().into_owned(),
-        lib.path().join("labels.csv").to_string_lossy().into_owned(),
-    );
-    platform_ok(
-        &[
-            "library",
-            "import",
-            "--database-url",
-            &db.url,
-            "--name",
-            "fx",
-            "--labels",
-            &labels,
-            &lib_path,
-        ],
-        &[],
-    );
+    import_library(&db, lib.path());
     let create = |extra: &[&str]| {
         let mut args = vec![
             "study",
@@ -476,24 +459,7 @@ async fn mashup_hit_in_chromium() {
     };
     let db = sqlite_db();
     let lib = small_library(3);
-    let (lib_path, labels) = (
-        lib.path().to_string_lossy().into_owned(),
-        lib.path().join("labels.csv").to_string_lossy().into_owned(),
-    );
-    platform_ok(
-        &[
-            "library",
-            "import",
-            "--database-url",
-            &db.url,
-            "--name",
-            "fx",
-            "--labels",
-            &labels,
-            &lib_path,
-        ],
-        &[],
-    );
+    import_library(&db, lib.path());
     let out = platform_ok(
         &[
             "study",

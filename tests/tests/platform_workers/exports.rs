@@ -33,22 +33,7 @@ fn setup_formula_study(db: &TestDb, opts: &StudyOpts) -> i64 {
         renamed.push_str(&format!("{new},{style},\n"));
     }
     std::fs::write(lib.path().join("labels.csv"), renamed).expect("labels");
-    let path = lib.path().to_string_lossy().into_owned();
-    let labels = lib.path().join("labels.csv").to_string_lossy().into_owned();
-    platform_ok(
-        &[
-            "library",
-            "import",
-            "--database-url",
-            &db.url,
-            "--name",
-            "fx",
-            "--labels",
-            &labels,
-            &path,
-        ],
-        &[],
-    );
+    import_library(db, lib.path());
     let settings = lib.path().join("settings.json");
     let mut body = json!({
         "questions_per_hit": opts.questions,

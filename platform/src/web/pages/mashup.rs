@@ -60,6 +60,13 @@ struct MashupPage {
     script: String,
 }
 
+impl MashupPage {
+    /// The admin exports compositions as PNG and SVG (`mashup_canvas.html`).
+    fn has_exports(&self) -> bool {
+        true
+    }
+}
+
 async fn mashup_page(
     State(state): State<AppState>,
     admin: std::result::Result<Admin, AppError>,

@@ -23,6 +23,13 @@ struct MashupTaskPage {
     backgrounds: Vec<BackgroundChoice>,
 }
 
+impl MashupTaskPage {
+    /// A worker submits the composition; it is not theirs to export (`mashup_canvas.html`).
+    fn has_exports(&self) -> bool {
+        false
+    }
+}
+
 /// The task page of an active mash-up assignment.
 pub(super) fn render_task(
     token: &str,
