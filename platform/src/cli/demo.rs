@@ -313,7 +313,7 @@ pub async fn simulate(db: &Db, study: &Study, n: u32, seed: u64) -> Result<SimRe
                 choice: crate::store::ids::ItemId(if picks_b { b } else { c }),
                 elapsed_ms: Some(rng.random_range(1500..6000)),
             };
-            flow::answer(db, &token, &req).await?;
+            flow::answer(db, &token, &req, flow::AnsweredBy::Question).await?;
         }
         if spammer {
             report.spammers += 1;

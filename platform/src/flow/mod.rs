@@ -44,7 +44,7 @@ use start_writes::*;
 pub use training_answers::*;
 
 pub(crate) use answers::COMPLETE;
-pub use answers::{AnswerAck, AnswerRequest, answer};
+pub use answers::{AnswerAck, AnswerRequest, AnsweredBy, answer};
 pub use consent::consent_version;
 pub use outlook::{HitOutlook, outlook};
 pub use resume::{Existing, existing};
@@ -188,21 +188,6 @@ fn view(kind: StudyKind, position: i64, a: i64, b: i64, c: i64, swapped: bool) -
 /// Loads the study of an assignment.
 pub async fn study_of(db: &Db, a: &Assignment) -> Result<Study> {
     study::load(db, a.study).await
-}
-
-/// The kind of the study of the assignment `token` (`None`: no such assignment).
-pub async fn kind_of_token(db: &Db, token: &str) -> Result<Option<StudyKind>> {
-    if !valid_token(token) {
-        return Ok(None);
-    }
-    let row = sqlx::query(
-        "SELECT s.kind FROM assignments a JOIN studies s ON s.id = a.study_id WHERE a.token = $1",
-    )
-    .bind(token)
-    .fetch_optional(&db.pool)
-    .await?;
-    row.map(|r| StudyKind::parse(&r.try_get::<String, _>("kind")?))
-        .transpose()
 }
 
 #[cfg(test)]

@@ -16,6 +16,7 @@ use crate::flow::qc;
 use crate::store::answer_writer::{AnswerWrite, Written};
 use crate::store::db::{Backend, Db, now_ms};
 use crate::store::ids::{AssignmentId, ItemId, StudyId};
+use crate::studies::kind::StudyKind;
 use crate::studies::study;
 
 mod sqlite_batch;
@@ -48,20 +49,43 @@ pub struct AnswerAck {
     pub next_position: Option<i64>,
 }
 
+/// Who answers a question: the worker's answer request, or the mash-up task's checked
+/// submission, whose HIT's one question stands for the composition (§5.7.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AnsweredBy {
+    /// `POST …/answers` or the no-script answer form.
+    Question,
+    /// `POST …/mashup/submit`, after the composition is checked and stored.
+    ComposedScene,
+}
+
 /// What the answer path needs to know before writing, read in one query.
 pub(crate) struct AnswerTarget {
     pub(crate) assignment: AssignmentId,
     pub(crate) study: StudyId,
+    /// The study's kind (`studies.kind`, see [`StudyKind`]).
+    pub(crate) kind: String,
     pub(crate) status: String,
     /// `None`: the assignment has no question at that position.
     pub(crate) question: Option<TargetQuestion>,
 }
 
 impl AnswerTarget {
-    /// Checks an answer against what was read (the assignment is answering, `elapsed_ms` is
-    /// plausible, the question exists, the choice is one of its two options) and returns the
-    /// choice as stored: `b` or `c`.
-    pub(crate) fn choose(&self, choice: i64, elapsed_ms: Option<i64>) -> Result<&'static str> {
+    /// Checks an answer against what was read (a mash-up HIT's question is answered only by
+    /// its composition, the assignment is answering, `elapsed_ms` is plausible, the question
+    /// exists, the choice is one of its two options) and returns the choice as stored: `b` or
+    /// `c`.
+    pub(crate) fn choose(
+        &self,
+        choice: i64,
+        elapsed_ms: Option<i64>,
+        by: AnsweredBy,
+    ) -> Result<&'static str> {
+        if by == AnsweredBy::Question && self.kind == StudyKind::Mashup.as_str() {
+            return Err(AppError::Conflict(
+                "a mash-up task ends by submitting the composition (/mashup/submit)".into(),
+            ));
+        }
         if self.status != "active" && self.status != "completed" {
             return Err(AppError::Conflict(format!(
                 "the assignment is {}, not answering questions",
@@ -105,6 +129,7 @@ impl AnswerTarget {
         Ok(AnswerTarget {
             assignment: AssignmentId(r.try_get("id")?),
             study: StudyId(r.try_get("study_id")?),
+            kind: r.try_get("kind")?,
             status: r.try_get("status")?,
             question,
         })
@@ -126,6 +151,7 @@ impl AnswerTarget {
         Ok(AnswerTarget {
             assignment: AssignmentId(r.get("id")?),
             study: StudyId(r.get("study_id")?),
+            kind: r.get("kind")?,
             status: r.get("status")?,
             question,
         })
@@ -139,11 +165,12 @@ pub(crate) struct TargetQuestion {
     pub(crate) choice: Option<String>,
 }
 
-/// The assignment behind `$1` (its token) and its question at position `$2`, with the
-/// question's two options (never a control's expected answer), in one round trip instead of one
-/// per table; no row without such an assignment.
-pub(crate) const ANSWER_TARGET: &str = "SELECT a.id, a.study_id, a.status, q.position, q.choice, \
-     q.ask_reasons, t.b, t.c FROM assignments a \
+/// The assignment behind `$1` (its token), its study's kind and its question at position `$2`,
+/// with the question's two options (never a control's expected answer), in one round trip
+/// instead of one per table; no row without such an assignment.
+pub(crate) const ANSWER_TARGET: &str = "SELECT a.id, a.study_id, s.kind, a.status, q.position, \
+     q.choice, q.ask_reasons, t.b, t.c FROM assignments a \
+     JOIN studies s ON s.id = a.study_id \
      LEFT JOIN questions q ON q.assignment_id = a.id AND q.position = $2 \
      LEFT JOIN tuples t ON t.id = q.tuple_id \
      WHERE a.token = $1";
@@ -169,12 +196,17 @@ async fn answer_target(db: &Db, token: &str, position: i64) -> Result<AnswerTarg
 /// the answer writer's batch transaction (`answer_in_batch`). On PostgreSQL it is one read
 /// (`answer_target`), one group-committed write and a read of the next open position; the
 /// study is loaded only to complete a HIT.
-pub async fn answer(db: &Db, token: &str, req: &AnswerRequest) -> Result<AnswerAck> {
+pub async fn answer(
+    db: &Db,
+    token: &str,
+    req: &AnswerRequest,
+    by: AnsweredBy,
+) -> Result<AnswerAck> {
     if db.backend == Backend::Sqlite {
-        return answer_in_batch(db, token, req).await;
+        return answer_in_batch(db, token, req, by).await;
     }
     let target = answer_target(db, token, req.position).await?;
-    let choice = target.choose(req.choice.0, req.elapsed_ms)?;
+    let choice = target.choose(req.choice.0, req.elapsed_ms, by)?;
     let q = target
         .question
         .as_ref()
@@ -200,7 +232,12 @@ pub async fn answer(db: &Db, token: &str, req: &AnswerRequest) -> Result<AnswerA
 /// SQLite: the read, the checks and the write of [`answer`] all happen in the answer writer's
 /// transaction ([`crate::store::answer_writer::AnswerWriter::submit`]), batched with the other
 /// answers of that transaction; nothing is read before or after.
-async fn answer_in_batch(db: &Db, token: &str, req: &AnswerRequest) -> Result<AnswerAck> {
+async fn answer_in_batch(
+    db: &Db,
+    token: &str,
+    req: &AnswerRequest,
+    by: AnsweredBy,
+) -> Result<AnswerAck> {
     if !valid_token(token) {
         return Err(AppError::NotFound("assignment"));
     }
@@ -213,6 +250,7 @@ async fn answer_in_batch(db: &Db, token: &str, req: &AnswerRequest) -> Result<An
                 position: req.position,
                 choice: req.choice.0,
                 elapsed_ms: req.elapsed_ms,
+                by,
             },
         )
         .await?;

@@ -8,7 +8,7 @@ use std::collections::{HashMap, HashSet};
 
 use rusqlite::Connection;
 
-use super::{ANSWER_TARGET, AnswerTarget, NEXT_OPEN};
+use super::{ANSWER_TARGET, AnswerTarget, AnsweredBy, NEXT_OPEN};
 use crate::error::{AppError, Result};
 use crate::store::answer_writer::{Batched, STORE_ANSWER};
 use crate::store::db::now_ms;
@@ -27,6 +27,8 @@ pub(crate) struct AnswerSubmit {
     pub(crate) choice: i64,
     /// Client-reported time on the question.
     pub(crate) elapsed_ms: Option<i64>,
+    /// The answer request or a mash-up task's submission.
+    pub(crate) by: AnsweredBy,
 }
 
 /// What a submitted answer did, once its transaction has committed.
@@ -147,7 +149,7 @@ fn submit_one(
     else {
         return Ok(Err(AppError::NotFound("assignment")));
     };
-    let choice = match target.choose(s.choice, s.elapsed_ms) {
+    let choice = match target.choose(s.choice, s.elapsed_ms, s.by) {
         Ok(c) => c,
         Err(e) => return Ok(Err(e)),
     };
@@ -247,6 +249,7 @@ mod tests {
             position,
             choice,
             elapsed_ms,
+            by: AnsweredBy::Question,
         }
     }
 
@@ -336,7 +339,7 @@ mod tests {
                         choice: ItemId(b),
                         elapsed_ms: Some(10),
                     };
-                    flow::answer(&db, &token, &req).await
+                    flow::answer(&db, &token, &req, flow::AnsweredBy::Question).await
                 });
             }
         }

@@ -278,7 +278,7 @@ pub(super) async fn mashup_submit(
             choice: q.left.id,
             elapsed_ms: None,
         };
-        flow::answer(&state.db, &token, &req).await?;
+        flow::answer(&state.db, &token, &req, flow::AnsweredBy::ComposedScene).await?;
     }
     let a = flow::by_token(&state.db, &token).await?;
     Ok(Json(flow::state(&state.db, &s, &a).await?))

@@ -15,7 +15,6 @@ use crate::flow::{
     TrainingAnswer, TrainingResult,
 };
 use crate::store::ids::StudyId;
-use crate::studies::kind::StudyKind;
 use crate::studies::study::{self, MturkMode};
 use crate::web::extract::{ApiJson, ApiPath};
 
@@ -169,13 +168,10 @@ pub(super) async fn answer(
     ApiJson(req): ApiJson<AnswerRequest>,
 ) -> Result<Json<AnswerAck>> {
     // A mash-up HIT's one question stands for the composition: only a checked submission
-    // answers it.
-    if flow::kind_of_token(&state.db, &token).await? == Some(StudyKind::Mashup) {
-        return Err(AppError::Conflict(
-            "a mash-up task ends by submitting the composition (/mashup/submit)".into(),
-        ));
-    }
-    Ok(Json(flow::answer(&state.db, &token, &req).await?))
+    // answers it (refused with 409 in the answer's own read, see `AnsweredBy`).
+    Ok(Json(
+        flow::answer(&state.db, &token, &req, flow::AnsweredBy::Question).await?,
+    ))
 }
 
 /// Stores the "why did you choose?" questionnaire of a question.

@@ -194,17 +194,12 @@ pub(super) async fn answer_submit(
     page(
         async {
             let ApiForm(f) = form?;
-            if flow::kind_of_token(&state.db, &token).await? == Some(StudyKind::Mashup) {
-                return Err(AppError::Conflict(
-                    "a mash-up task ends by submitting the composition".into(),
-                ));
-            }
             let req = flow::AnswerRequest {
                 position: f.position,
                 choice: f.choice,
                 elapsed_ms: f.elapsed_ms.and_then(|v| v.parse().ok()),
             };
-            match flow::answer(&state.db, &token, &req).await {
+            match flow::answer(&state.db, &token, &req, flow::AnsweredBy::Question).await {
                 Ok(_) => {}
                 // A second, different input for a question already answered (a double tap
                 // without the page's script): the first answer stands and the worker moves on.
