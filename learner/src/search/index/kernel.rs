@@ -8,15 +8,6 @@ pub const LANES: usize = 16;
 /// Rows per group: their lane sums are stored, then reduced (see [`squared_distances`]).
 const GROUP: usize = 64;
 
-/// Which rows of a row-major matrix a kernel reads.
-#[derive(Debug, Clone, Copy)]
-pub(crate) enum Rows<'a> {
-    /// `out.len()` consecutive rows from this one.
-    From(usize),
-    /// These rows (one per output).
-    List(&'a [u32]),
-}
-
 crate::simd::vectorised_fn! {
     /// Squared Euclidean distance from `q` to each row of `rows` (rows of `q.len()` floats, a
     /// multiple of [`LANES`]), into `out`.
@@ -27,20 +18,17 @@ crate::simd::vectorised_fn! {
 
 crate::simd::vectorised_fn! {
     /// The value rows are ranked by, for the rows `rows` of `data` (row-major, `q.len()` floats
-    /// per row) against the `references`: the squared distance for one reference (the same
+    /// per row; one key per listed row) against the `references`: the squared distance for one reference (the same
     /// order as the distance, one square root less per row), the mean distance for several.
     /// One pass over the rows: each group of rows is compared with every reference while it
     /// is in the L1 cache, and candidate rows are read where they are (no gathered copy).
     pub(crate) fn ranking_keys<'a>(
         data: &'a [f32],
-        rows: Rows<'a>,
+        rows: &'a [u32],
         references: &'a [Vec<f32>],
         keys: &'a mut [f32],
     ) -> () {
-        match rows {
-            Rows::From(start) => keys_with(data, |i| start + i, references, keys),
-            Rows::List(list) => keys_with(data, |i| list[i] as usize, references, keys),
-        }
+        keys_with(data, |i| rows[i] as usize, references, keys);
     }
 }
 
@@ -135,7 +123,7 @@ mod tests {
     /// The one-pass keys of several references equal the previous two-step computation (a
     /// squared-distance pass per reference over a gathered copy of the rows, then the mean of
     /// the square roots) bit for bit, on the dispatched and the baseline paths, for a row list
-    /// and a row range that are not multiples of the group size.
+    /// and a run of rows that are not multiples of the group size.
     #[test]
     fn one_pass_keys_are_the_separate_passes_bit_for_bit() {
         let (stride, n) = (48, 300);
@@ -159,15 +147,14 @@ mod tests {
         }
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         let mut got = vec![0.0f32; list.len()];
-        ranking_keys(&data, Rows::List(&list), &refs, &mut got);
+        ranking_keys(&data, &list, &refs, &mut got);
         assert_eq!(bits(&got), bits(&want));
-        crate::simd::tests::baseline_only(|| {
-            ranking_keys(&data, Rows::List(&list), &refs, &mut got)
-        });
+        crate::simd::tests::baseline_only(|| ranking_keys(&data, &list, &refs, &mut got));
         assert_eq!(bits(&got), bits(&want));
 
         let mut one = vec![0.0f32; 100];
-        ranking_keys(&data, Rows::From(50), &refs[..1], &mut one);
+        let run: Vec<u32> = (50..150).collect();
+        ranking_keys(&data, &run, &refs[..1], &mut one);
         let mut sd = vec![0.0f32; 100];
         squared_distances(&data[50 * stride..150 * stride], &refs[0], &mut sd);
         assert_eq!(bits(&one), bits(&sd));

@@ -4,6 +4,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::blocked::RowBlocks;
 use super::kernel::LANES;
 use super::weighting::Weighting;
 use crate::table::FeatureTable;
@@ -24,6 +25,8 @@ pub struct StyleMatrix {
     stride: usize,
     /// Row-major, `len × stride`.
     pub(super) data: Vec<f32>,
+    /// The same rows in blocks, for scans of the whole library (derived from `data`).
+    pub(super) blocks: RowBlocks,
 }
 
 impl StyleMatrix {
@@ -70,6 +73,7 @@ impl StyleMatrix {
             feature_count: p,
             stride,
             data: vec![0.0; table.len() * stride],
+            blocks: RowBlocks::default(),
         };
         let (dims, stride) = (&matrix.dims, matrix.stride);
         let (mean, scale, sqrt_w) = (&matrix.mean, &matrix.scale, &matrix.sqrt_w);
@@ -83,6 +87,7 @@ impl StyleMatrix {
                     row[j] = ((raw[k] - mean[j]) / scale[j] * sqrt_w[j]) as f32;
                 }
             });
+        matrix.blocks = RowBlocks::from_rows(&matrix.data, stride, matrix.dims.len());
         Ok(matrix)
     }
 
@@ -101,6 +106,7 @@ impl StyleMatrix {
             });
         }
         Ok(Self {
+            blocks: RowBlocks::from_rows(&data, stride, d),
             dims: parts.dims,
             mean: parts.mean,
             scale: parts.scale,
@@ -155,9 +161,9 @@ impl StyleMatrix {
         &self.data[i * self.stride..(i + 1) * self.stride]
     }
 
-    /// Heap bytes held.
+    /// Heap bytes held (both copies of the rows).
     pub fn memory_bytes(&self) -> usize {
-        self.data.len() * 4 + self.dims.len() * 32
+        self.data.len() * 4 + self.blocks.memory_bytes() + self.dims.len() * 32
     }
 
     /// Projects a raw feature vector (all features, table column order) like the stored rows.

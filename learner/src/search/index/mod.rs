@@ -5,7 +5,9 @@
 //! `x̂ = (x − mean) / scale`. Storing every item as `z = √w ⊙ x̂` makes it `‖z_x − z_y‖₂`, and
 //! the dimensions with `w_k = 0` (most of them: the metric is L1-sparse) drop out entirely. The
 //! kept dimensions are stored as `f32` rows, ordered by decreasing weight and padded with zeros
-//! to a multiple of [`LANES`] so the scan is one vectorised loop per row.
+//! to a multiple of [`LANES`] so the scan of a candidate list is one vectorised loop per row;
+//! a scan of the whole library reads a second copy stored in blocks of 16 rows, dimension by
+//! dimension, where a vector register holds one dimension of several rows.
 //!
 //! The scan is exact (recall 1.0): every candidate's distance is computed and the `k` smallest
 //! are kept in a bounded heap. Equal distances are ordered by item order, so the result does not
@@ -14,8 +16,10 @@
 //! * [`weighting`]: where `w`, the mean and the scale come from (a model, or uniform).
 //! * [`matrix`]: the projected rows.
 //! * `nearest`: the exact scan over all rows or a candidate list.
-//! * `kernel`: the vectorised distance loops; `topk`: the bounded heap.
+//! * `kernel`: the vectorised distance loops over rows; `blocked`: the blocked copy and its
+//!   loops; `topk`: the bounded heap.
 
+mod blocked;
 mod kernel;
 pub mod matrix;
 mod nearest;

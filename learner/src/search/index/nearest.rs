@@ -4,12 +4,14 @@
 
 use rayon::prelude::*;
 
-use super::kernel::{Rows, ranking_keys};
+use super::blocked::BLOCK_ROWS;
+use super::kernel::ranking_keys;
 use super::matrix::StyleMatrix;
 use super::topk::TopK;
 
-/// Rows per parallel task (and per key buffer) in a scan.
+/// Rows per parallel task (and per key buffer) in a scan; a multiple of [`BLOCK_ROWS`].
 const BLOCK: usize = 4096;
+const _: () = assert!(BLOCK.is_multiple_of(BLOCK_ROWS));
 
 impl StyleMatrix {
     /// The `k` candidates nearest to the references, by the mean of their distances `d` to
@@ -28,20 +30,27 @@ impl StyleMatrix {
         if references.is_empty() || k == 0 {
             return Vec::new();
         }
-        let scan = |rows: Rows<'_>, n: usize| {
-            let mut top = TopK::new(k);
-            self.scan(references, rows, n, exclude, &mut top);
-            top
-        };
         let top = match candidates {
+            // The whole library: the blocked copy, in runs of consecutive rows.
             None => (0..self.len())
                 .into_par_iter()
                 .step_by(BLOCK)
-                .map(|start| scan(Rows::From(start), BLOCK.min(self.len() - start)))
+                .map(|start| {
+                    let mut keys = [0.0f32; BLOCK];
+                    let keys = &mut keys[..BLOCK.min(self.len() - start)];
+                    self.blocks.keys(references, start, keys);
+                    select(keys, |i| (start + i) as u32, exclude, k)
+                })
                 .reduce(|| TopK::new(k), TopK::merge),
+            // A candidate list: each row read where it is in the row-major copy.
             Some(rows) => rows
                 .par_chunks(BLOCK)
-                .map(|rows| scan(Rows::List(rows), rows.len()))
+                .map(|rows| {
+                    let mut keys = [0.0f32; BLOCK];
+                    let keys = &mut keys[..rows.len()];
+                    ranking_keys(&self.data, rows, references, keys);
+                    select(keys, |i| rows[i], exclude, k)
+                })
                 .reduce(|| TopK::new(k), TopK::merge),
         };
         let mut out: Vec<(u32, f64)> = top
@@ -60,32 +69,22 @@ impl StyleMatrix {
         out.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
         out
     }
+}
 
-    /// Ranks `n ≤ BLOCK` rows into `top`; most stop at one comparison with its threshold.
-    fn scan(
-        &self,
-        references: &[Vec<f32>],
-        rows: Rows<'_>,
-        n: usize,
-        exclude: &[u32],
-        top: &mut TopK,
-    ) {
-        let mut keys = [0.0f32; BLOCK];
-        let keys = &mut keys[..n];
-        ranking_keys(&self.data, rows, references, keys);
-        for (i, &key) in keys.iter().enumerate() {
-            if key <= top.threshold() {
-                let row = match rows {
-                    Rows::From(start) => (start + i) as u32,
-                    Rows::List(list) => list[i],
-                };
-                // `push` settles ties by row.
-                if !exclude.contains(&row) {
-                    top.push(key, row);
-                }
+/// The `k` smallest keys of a run and their rows (`row(i)` of key `i`), skipping `exclude`;
+/// most keys stop at one comparison with the heap's threshold.
+fn select(keys: &[f32], row: impl Fn(usize) -> u32, exclude: &[u32], k: usize) -> TopK {
+    let mut top = TopK::new(k);
+    for (i, &key) in keys.iter().enumerate() {
+        if key <= top.threshold() {
+            let row = row(i);
+            // `push` settles ties by row.
+            if !exclude.contains(&row) {
+                top.push(key, row);
             }
         }
     }
+    top
 }
 
 #[cfg(test)]
