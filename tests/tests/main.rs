@@ -20,6 +20,7 @@ mod platform_openapi;
 mod platform_phone;
 mod platform_rating;
 mod platform_rating_from_mashup;
+mod platform_report_export;
 mod platform_search;
 mod platform_security;
 mod platform_settings;
