@@ -408,6 +408,9 @@ async fn mashup_study(db: TestDb) {
     .await;
     assert_eq!(status, 200, "{report}");
     assert_eq!(report["kind"], "mashup");
+    let exported =
+        crate::platform_report_export::check_report_export(&c, base, &cookie, study).await;
+    assert_eq!(exported, report, "the export's report");
     for (condition, token, searches) in [("A", &wa, 2), ("B", &wb, 3)] {
         let r = report["conditions"]
             .as_array()

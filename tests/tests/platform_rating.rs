@@ -380,6 +380,10 @@ async fn rating_study(db: TestDb) {
     close("ci_low", expected.interval.low);
     close("ci_high", expected.interval.high);
     assert_eq!(report["per_worker"].as_array().map(Vec::len), Some(5));
+    // The export holds the same report (report.json, report.csv).
+    let exported =
+        crate::platform_report_export::check_report_export(&c, base, &cookie, study).await;
+    assert_eq!(exported, report);
     // The study page shows the same report.
     let admin_page = admin_text(&c, &format!("{base}/admin/studies/{study}"), &cookie).await;
     assert!(admin_page.contains("id=\"rating-report\""), "{admin_page}");

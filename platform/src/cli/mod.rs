@@ -20,6 +20,7 @@ pub mod bench;
 pub mod demo;
 
 mod study_command;
+mod study_create;
 pub use study_command::StudyCommand;
 
 /// Rating-study platform for clip-art style similarity.

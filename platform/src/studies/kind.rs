@@ -103,6 +103,26 @@ impl StudyKind {
         }
     }
 
+    /// A new study's settings before a settings file, flags or form fields: the paper's triplet
+    /// defaults; for a composition rating its own instructions, no worked example or reasons
+    /// questionnaire (both are about triplets) and the coherence question; for a mash-up study
+    /// one composition task per HIT (`mashup::pool::defaults`).
+    pub fn default_settings(self) -> crate::studies::study::StudySettings {
+        use crate::studies::study::StudySettings;
+        match self {
+            Self::CompositionRating => StudySettings {
+                description: "Compare two compositions of clip art.".into(),
+                instructions: crate::studies::rating::INSTRUCTIONS.into(),
+                show_worked_example: false,
+                reasons_probability: 0.0,
+                question: Some(RatingQuestion::Coherence),
+                ..StudySettings::default()
+            },
+            Self::Mashup => crate::studies::mashup::pool::defaults(None),
+            Self::Triplet => StudySettings::default(),
+        }
+    }
+
     /// Whether the start page may show a worked example (a triplet with its answer): the
     /// example's wording is about a reference, which only triplets have.
     pub fn has_worked_example(self) -> bool {

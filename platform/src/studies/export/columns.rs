@@ -200,8 +200,38 @@ pub(super) const PROLIFIC_BONUSES: Table = Table {
     ],
 };
 
+pub(super) const REPORT: Table = Table {
+    file: "report.csv",
+    header: true,
+    columns: &[
+        text(
+            "kind",
+            "the study's kind: triplet, composition-rating or mashup",
+        ),
+        text(
+            "group",
+            "empty for the whole study, A or B for a mash-up condition, worker N for one \
+             worker of a composition rating (the platform's worker number, as in report.json)",
+        ),
+        text(
+            "measure",
+            "the field of report.json: for a composition rating question, workers, answers, \
+             chose_a, mean_rate (the preference rate for condition A), t, df, p (one-sided, \
+             against 0.5), effect_size (Cohen's d), sd, ci_low, ci_high, note, and per worker \
+             answers, chose_a, rate; for a mash-up study per condition workers, pieces, \
+             searches and position_mean, position_half_width, position_low, position_high, \
+             position_sd",
+        ),
+        number(
+            "value",
+            "the number (empty when the report has none, e.g. no test yet)",
+        ),
+        text("text", "the question, or why there is no test"),
+    ],
+};
+
 /// Every CSV file, in the order of [`super::FILES`].
-pub(super) const TABLES: [&Table; 8] = [
+pub(super) const TABLES: [&Table; 9] = [
     &TRIPLETS,
     &REASONS,
     &WORKERS,
@@ -210,6 +240,7 @@ pub(super) const TABLES: [&Table; 8] = [
     &MTURK_DECISIONS,
     &MTURK_BONUSES,
     &PROLIFIC_BONUSES,
+    &REPORT,
 ];
 
 /// The files that exist to pay workers: they need the real ids, list every HIT or bonus

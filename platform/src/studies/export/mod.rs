@@ -2,7 +2,8 @@
 //! when A was judged closer to B, plus `worker_id`), `reasons.csv`, `workers.csv`,
 //! `assignments.csv`, `bonuses.csv`, the payment files (`mturk_decisions.csv` for MTurk's batch
 //! approve/reject upload, `mturk_bonuses.csv` for `aws mturk send-bonus`,
-//! `prolific_bonuses.csv` for Prolific's bulk bonus), `external_question.xml` and
+//! `prolific_bonuses.csv` for Prolific's bulk bonus), the study's report (`report.json`, the
+//! report endpoint's body, and `report.csv`, its numbers one per row), `external_question.xml` and
 //! `manifest.json` (settings, items in stable order, the data dictionary of every column, and
 //! notes on what each option does to each file).
 //!
@@ -23,6 +24,7 @@ use crate::time::iso8601;
 
 mod columns;
 mod data;
+mod report;
 mod table;
 
 use data::{Counts, Hit, answers, counts, hits, time_cells};
@@ -94,6 +96,8 @@ pub const FILES: &[&str] = &[
     "mturk_decisions.csv",
     "mturk_bonuses.csv",
     "prolific_bonuses.csv",
+    "report.json",
+    "report.csv",
     "external_question.xml",
     "manifest.json",
 ];
@@ -301,6 +305,7 @@ pub async fn build(
             columns::PROLIFIC_BONUSES.csv(&prolific_bonuses)?,
         ));
     }
+    out.extend(report::files(db, study).await?);
     out.push(("external_question.xml".into(), xml.into_bytes()));
     out.push((
         "manifest.json".into(),
@@ -373,47 +378,4 @@ pub struct Written {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn external_question_escapes_the_url() {
-        let x = external_question_xml("https://h/s/1?a=1&b=2");
-        assert!(x.contains("<ExternalURL>https://h/s/1?a=1&amp;b=2</ExternalURL>"));
-    }
-
-    #[test]
-    fn every_file_but_the_xml_and_manifest_has_a_dictionary_entry() {
-        let described: Vec<&str> = columns::TABLES.iter().map(|t| t.file).collect();
-        let csvs: Vec<&str> = FILES
-            .iter()
-            .copied()
-            .filter(|f| f.ends_with(".csv"))
-            .collect();
-        assert_eq!(described, csvs);
-        for f in columns::PAYMENT_FILES {
-            assert!(FILES.contains(&f), "{f}");
-        }
-    }
-
-    #[test]
-    fn options_filter_hits_and_make_links() {
-        let default = ExportOptions::default();
-        assert!(default.includes("completed", Some("approved")));
-        assert!(default.includes("completed", None));
-        assert!(!default.includes("completed", Some("rejected")));
-        assert!(!default.includes("active", None));
-        let all = ExportOptions {
-            include_controls: true,
-            include_rejected: true,
-            include_incomplete: true,
-            pseudonymous: false,
-        };
-        assert!(all.includes("screened_out", Some("rejected")));
-        assert_eq!(default.query(), "");
-        assert_eq!(
-            all.query(),
-            "?include_controls=true&include_rejected=true&include_incomplete=true"
-        );
-    }
-}
+mod tests;

@@ -3,8 +3,10 @@
 //! results in random order — shown side by side, "Which composition has a more coherent
 //! style?" or "Which composition do you like better?".
 //!
-//! Input: a folder of composition images and a CSV `file,condition,task[,control_expected]`.
-//! Pairs are made within each task, every condition-A composition with every condition-B one.
+//! Input: a folder of composition images and a CSV `file,condition,task[,control_expected]`,
+//! or the submitted compositions of mash-up studies ([`from_mashup`]).
+//! From the CSV, pairs are made within each task, every condition-A composition with every
+//! condition-B one.
 //! A pair is stored as a tuple with `b` = the A composition and `c` = the B one (`a` = `b`,
 //! never shown), so the shared answer path stores `b` when A was chosen; the left/right order
 //! is the per-worker random order every question has. Tasks whose rows carry
@@ -22,8 +24,11 @@ use crate::error::{AppError, Result};
 use crate::store::ids::ItemId;
 use crate::studies::study::{DrawnPool, NewTuple, StudySettings, practice_pool_size};
 
+pub mod from_mashup;
+mod pairing;
 mod report;
 
+pub use pairing::balanced_pairs;
 pub use report::{RatingReport, RatingStats, WorkerRate, report};
 
 /// The instructions of a new composition-rating study.

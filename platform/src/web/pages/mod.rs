@@ -18,6 +18,7 @@ use crate::web::extract::ApiPath;
 mod admin_session;
 mod mashup;
 mod models;
+mod new_study;
 mod search;
 mod search_example;
 mod study_page;
@@ -39,6 +40,7 @@ pub fn routes() -> Router<AppState> {
         .merge(models::routes())
         .merge(search::routes())
         .merge(mashup::routes())
+        .merge(new_study::routes())
 }
 
 pub(super) fn render(t: &impl Template) -> Result<Response> {
