@@ -13,7 +13,10 @@
 //   data-log-url     optional: POST JSON events {"event":"search","seq":N,"q":..,"category":..,
 //                    "results":[ids…]} for every result list shown, {"event":"add","item":ID,
 //                    "search_seq":N,"position":P} (P: 1-based position in the list the piece came
-//                    from), {"event":"remove","item":ID}
+//                    from), {"event":"remove","item":ID}, {"event":"undo"|"redo","items":[ids
+//                    on the canvas after, bottom to top],"background":NAME}, {"event":"layer",
+//                    "item":ID,"from":I,"to":J} (0 = bottom), {"event":"background",
+//                    "background":NAME}
 //   data-background  optional: a fixed background name (the drop-down is hidden)
 //   data-csrf        optional: sent as the x-csrf-token header of every POST/PUT
 //   data-max-near    most reference items of one search (default 20)
@@ -24,7 +27,8 @@
 //   data-submit-url  optional: POST {document} submits the composition (#mashup-submit); on
 //                    success the page goes to data-done-url
 // The page's state is exposed for tests and the host page: the root's data-document (the JSON
-// document), data-selected (the selected piece's index or -1), data-search-seq, and on the
+// document), data-selected (the selected piece's index or -1), data-search-seq, data-logged
+// (events posted and answered), and on the
 // results list data-ids (the ids in the order shown).
 "use strict";
 (function () {
@@ -63,10 +67,16 @@
   async function errorOf(resp) {
     try { return (await resp.json()).error || resp.statusText; } catch (_) { return resp.statusText; }
   }
+  // Events are posted one after another, so the server numbers them in the order they were
+  // made; data-logged counts those answered.
+  let logQueue = Promise.resolve(), logged = 0;
   function log(event) {
     if (!cfg.logUrl) return;
-    fetch(cfg.logUrl, { method: "POST", headers: headers(), body: JSON.stringify(event) })
-      .catch(() => status("could not record an event"));
+    logQueue = logQueue
+      .then(() => fetch(cfg.logUrl, { method: "POST", headers: headers(), body: JSON.stringify(event) }))
+      .then((resp) => { if (!resp.ok) status("could not record an event"); })
+      .catch(() => status("could not record an event"))
+      .then(() => { root.dataset.logged = String(++logged); });
   }
 
   // ---- drawing ----
@@ -175,6 +185,7 @@
     bgSelect.value = doc.background;
     if (selected >= doc.pieces.length) selected = doc.pieces.length - 1;
     draw();
+    log({ event: from === undo ? "undo" : "redo", items: doc.pieces.map((p) => p.item), background: doc.background });
     if (items !== itemsOnCanvas()) search();
   }
 
@@ -349,12 +360,14 @@
   // ---- tools ----
   function layer(to) {
     if (selected < 0) return;
+    const from = selected, item = doc.pieces[from].item;
     change(() => {
       const [p] = doc.pieces.splice(selected, 1);
       const n = doc.pieces.length;
       selected = to === "top" ? n : to === "bottom" ? 0 : clamp(selected + (to === "up" ? 1 : -1), 0, n);
       doc.pieces.splice(selected, 0, p);
     });
+    if (selected !== from) log({ event: "layer", item: item, from: from, to: selected });
   }
   function remove() {
     if (selected < 0) return;
@@ -387,7 +400,10 @@
     bgSelect.value = cfg.background;
     $("mashup-background-label").hidden = true;
   }
-  bgSelect.addEventListener("change", () => change(() => { doc.background = bgSelect.value; }));
+  bgSelect.addEventListener("change", () => {
+    change(() => { doc.background = bgSelect.value; });
+    log({ event: "background", background: doc.background });
+  });
   $("mashup-search").addEventListener("submit", (e) => { e.preventDefault(); search(); });
   $("mashup-category").addEventListener("change", search);
   if ($("mashup-model")) $("mashup-model").addEventListener("change", search);
