@@ -85,8 +85,8 @@
     if (img) return img;
     img = new Image();
     img.onload = draw;
-    img.onerror = () => { // raster items have no SVG: their PNG
-      if (!img.src.endsWith(".png")) img.src = "/media/items/" + id + ".png";
+    img.onerror = () => { // raster items have no SVG: their PNG with its transparency
+      if (!img.src.endsWith(".png")) img.src = "/media/items/" + id + ".cutout.png";
     };
     img.src = "/media/items/" + id + ".svg";
     images.set(id, img);

@@ -122,6 +122,7 @@ fn swatch(i: usize) -> NewItem {
         style: Some(format!("group-{}", i % 4)),
         tags: Vec::new(),
         image: image::RgbImage::from_pixel(400, 400, image::Rgb(colour)),
+        cutout: None,
         svg: None,
     }
 }
