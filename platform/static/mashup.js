@@ -162,28 +162,31 @@
   }
 
   // ---- history ----
+  // A step is the document before it and the piece then selected: undoing a layer change
+  // selects the piece that moved back, not whichever piece now has its old index.
   function snapshot() { return JSON.stringify(doc); }
-  function remember(before) {
+  function remember(before, sel) {
     if (before === snapshot()) return;
-    undo.push(before);
+    undo.push({ doc: before, selected: sel });
     if (undo.length > 200) undo.shift();
     redo = [];
   }
   function itemsOnCanvas() { return doc.pieces.map((p) => p.item).join(","); }
   function change(fn) {
-    const before = snapshot(), items = itemsOnCanvas();
+    const before = snapshot(), sel = selected, items = itemsOnCanvas();
     fn();
-    remember(before);
+    remember(before, sel);
     draw();
     if (items !== itemsOnCanvas()) search();
   }
   function restore(from, to) {
     if (!from.length) return;
     const items = itemsOnCanvas();
-    to.push(snapshot());
-    doc = JSON.parse(from.pop());
+    to.push({ doc: snapshot(), selected: selected });
+    const step = from.pop();
+    doc = JSON.parse(step.doc);
     bgSelect.value = doc.background;
-    if (selected >= doc.pieces.length) selected = doc.pieces.length - 1;
+    selected = step.selected < doc.pieces.length ? step.selected : -1;
     draw();
     log({ event: from === undo ? "undo" : "redo", items: doc.pieces.map((p) => p.item), background: doc.background });
     if (items !== itemsOnCanvas()) search();
@@ -329,7 +332,7 @@
     if (!mode) return;
     e.preventDefault();
     canvas.setPointerCapture(e.pointerId);
-    const p = doc.pieces[selected], before = snapshot();
+    const p = doc.pieces[selected], sel = selected, before = snapshot();
     const start = { x: x, y: y, px: p.x, py: p.y, scale: p.scale, d: Math.max(1, Math.hypot(x - p.x, y - p.y)) };
     const move = (ev) => {
       const [mx, my] = toCanvas(ev);
@@ -347,7 +350,7 @@
       canvas.removeEventListener("pointermove", move);
       canvas.removeEventListener("pointerup", up);
       canvas.removeEventListener("pointercancel", up);
-      remember(before);
+      remember(before, sel);
       draw();
     };
     canvas.addEventListener("pointermove", move);
