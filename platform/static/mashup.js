@@ -1,5 +1,6 @@
 // The mash-up canvas (Garces et al. 2014 §5.7.3): search results sorted by style to what is on
-// the canvas, dragged onto an HTML5 canvas, arranged, exported and saved. No framework.
+// the canvas, dragged onto an HTML5 canvas, arranged, exported and saved. No framework. The
+// exports, saved compositions and a worker's submission are mashup_io.js (loaded first).
 //
 // Configuration: data-* attributes of the root element `#mashup`:
 //   data-library     the library's name (required)
@@ -48,7 +49,6 @@
   let selected = -1;
   let undo = [], redo = [];
   let searchSeq = 0;
-  let currentId = null;
   let searchTimer = null;
   const images = new Map(); // item id → Image (its SVG, or its PNG when it has none)
   const bgImages = new Map();
@@ -416,92 +416,18 @@
     location.search = "?" + new URLSearchParams({ library: librarySelect.value });
   });
 
-  // ---- export ----
-  async function exportAs(format) {
-    const resp = await fetch(cfg.renderUrl + "?format=" + format, {
-      method: "POST", headers: headers(), body: JSON.stringify({ library: cfg.library, document: doc }) });
-    if (!resp.ok) { status("Export failed: " + await errorOf(resp)); return; }
-    const blob = await resp.blob();
-    const a = document.createElement("a");
-    a.href = URL.createObjectURL(blob);
-    a.download = ($("mashup-name").value.trim() || "composition") + "." + format;
-    document.body.append(a);
-    a.click();
-    a.remove();
-    setTimeout(() => URL.revokeObjectURL(a.href), 10000);
-    root.dataset.lastExport = format + ":" + blob.size;
-    status("Exported " + format.toUpperCase() + " (" + Math.round(blob.size / 1024) + " KB).");
-  }
-  if (cfg.renderUrl) {
-    $("mashup-export-png").addEventListener("click", () => exportAs("png"));
-    $("mashup-export-svg").addEventListener("click", () => exportAs("svg"));
-  } else {
-    $("mashup-export-png").hidden = true;
-    $("mashup-export-svg").hidden = true;
-  }
-
-  // ---- save / load ----
-  async function refreshSaved() {
-    const resp = await fetch(cfg.saveUrl + "?" + new URLSearchParams({ library: cfg.library }));
-    if (!resp.ok) return;
-    const saved = $("mashup-saved");
-    saved.replaceChildren(new Option("—", ""));
-    for (const c of (await resp.json()).compositions) {
-      saved.add(new Option(c.name + " (" + c.pieces + " pieces)", String(c.id), false, String(c.id) === String(currentId)));
-    }
-  }
-  async function save(asNew) {
-    const name = $("mashup-name").value.trim();
-    if (!name) { status("Give the composition a name first."); $("mashup-name").focus(); return; }
-    const update = currentId && !asNew;
-    const resp = await fetch(update ? cfg.saveUrl + "/" + currentId : cfg.saveUrl, {
-      method: update ? "PUT" : "POST", headers: headers(),
-      body: JSON.stringify(update ? { name: name, document: doc } : { library: cfg.library, name: name, document: doc }) });
-    if (!resp.ok) { status("Not saved: " + await errorOf(resp)); return; }
-    currentId = (await resp.json()).id;
-    root.dataset.compositionId = String(currentId);
-    status("Saved “" + name + "”.");
-    refreshSaved();
-  }
-  async function load() {
-    const id = $("mashup-saved").value;
-    if (!id) return;
-    const resp = await fetch(cfg.saveUrl + "/" + id);
-    if (!resp.ok) { status("Not loaded: " + await errorOf(resp)); return; }
-    const c = await resp.json();
-    change(() => { doc = c.document; selected = -1; });
-    bgSelect.value = doc.background;
-    canvas.width = doc.width; canvas.height = doc.height;
-    currentId = c.id;
-    root.dataset.compositionId = String(currentId);
-    $("mashup-name").value = c.name;
-    draw();
-    status("Loaded “" + c.name + "”.");
-  }
-  if (cfg.saveUrl) {
-    $("mashup-save").addEventListener("submit", (e) => { e.preventDefault(); save(false); });
-    $("mashup-save-new").addEventListener("click", () => save(true));
-    $("mashup-load").addEventListener("click", load);
-    $("mashup-new").addEventListener("click", () => {
-      change(() => { doc.pieces = []; selected = -1; });
-      currentId = null; delete root.dataset.compositionId; $("mashup-name").value = "";
-    });
-    refreshSaved();
-  } else {
-    $("mashup-save").hidden = true;
-  }
-
-  // ---- a worker's submission ----
-  if (cfg.submitUrl) {
-    $("mashup-submit").addEventListener("click", async () => {
-      const button = $("mashup-submit");
-      button.disabled = true;
-      const resp = await fetch(cfg.submitUrl, { method: "POST", headers: headers(), body: JSON.stringify({ document: doc }) });
-      if (resp.ok) { location.href = cfg.doneUrl; return; }
-      showError(await errorOf(resp));
-      button.disabled = false;
-    });
-  }
+  // ---- files: export, save and load, a worker's submission (mashup_io.js) ----
+  window.mashupIO({
+    root, cfg, $, headers, status, errorOf, showError,
+    document: () => doc,
+    replaceDocument: (d) => {
+      change(() => { doc = d; selected = -1; });
+      bgSelect.value = doc.background;
+      canvas.width = doc.width; canvas.height = doc.height;
+      draw();
+    },
+    clearCanvas: () => change(() => { doc.pieces = []; selected = -1; }),
+  });
 
   bgSelect.value = doc.background;
   draw();

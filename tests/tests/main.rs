@@ -15,6 +15,7 @@ mod platform_flow;
 mod platform_mashup;
 mod platform_mashup_browser;
 mod platform_mashup_events;
+mod platform_mashup_events_browser;
 mod platform_mashup_keys;
 mod platform_mashup_raster;
 mod platform_mashup_study;
