@@ -14,7 +14,7 @@ use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use image::RgbImage;
+use image::{RgbImage, RgbaImage};
 
 use crate::iconify::IconSet;
 use crate::render;
@@ -53,6 +53,18 @@ impl Item {
                 render::render_raster(&read_limited(path, render::MAX_RASTER_BYTES)?)
             }
             Source::SvgText(svg) => render::render_svg(svg.as_bytes()),
+        }
+    }
+
+    /// For a raster item, its 400x400 rendering with the transparency kept
+    /// ([`render::render_raster_rgba`]); `None` for a drawing, whose vector source keeps it.
+    pub fn render_cutout(&self) -> Result<Option<RgbaImage>> {
+        match &self.source {
+            Source::RasterFile(path) => Ok(Some(render::render_raster_rgba(&read_limited(
+                path,
+                render::MAX_RASTER_BYTES,
+            )?)?)),
+            Source::SvgFile(_) | Source::SvgText(_) => Ok(None),
         }
     }
 }

@@ -138,6 +138,13 @@ pub fn render_svg_at(svg: &[u8], size: u32) -> Result<RgbImage> {
 
 /// Decodes a PNG/JPEG/TIFF and fits it onto a white 400x400 canvas.
 pub fn render_raster(bytes: &[u8]) -> Result<RgbImage> {
+    Ok(flatten_on_white(&render_raster_rgba(bytes)?))
+}
+
+/// Decodes a PNG/JPEG/TIFF and fits it onto a transparent 400x400 canvas, keeping its alpha:
+/// [`render_raster`] before the composite onto white (a composition places the cut-out on its
+/// own background, §5.7.3).
+pub fn render_raster_rgba(bytes: &[u8]) -> Result<RgbaImage> {
     if bytes.len() as u64 > MAX_RASTER_BYTES {
         return Err(Error::FileTooLarge {
             size: bytes.len() as u64,
@@ -162,7 +169,7 @@ pub fn render_raster(bytes: &[u8]) -> Result<RgbImage> {
     let decoded = reader
         .decode()
         .map_err(|e| Error::InvalidImage(e.to_string()))?;
-    Ok(fit_on_white(&decoded.to_rgba8(), CANVAS_SIZE))
+    Ok(fit_rgba(&decoded.to_rgba8(), CANVAS_SIZE))
 }
 
 fn check_raster_size(width: u32, height: u32) -> Result<()> {
@@ -184,6 +191,12 @@ fn check_raster_size(width: u32, height: u32) -> Result<()> {
 /// Scales `image` to fit `size`x`size` (aspect preserved, Catmull-Rom; never upscaled by more
 /// than needed), centres it and composites its alpha onto white.
 pub fn fit_on_white(image: &RgbaImage, size: u32) -> RgbImage {
+    flatten_on_white(&fit_rgba(image, size))
+}
+
+/// Scales `image` to fit `size`x`size` as [`fit_on_white`] does, centred on a transparent
+/// canvas.
+pub fn fit_rgba(image: &RgbaImage, size: u32) -> RgbaImage {
     let (w, h) = image.dimensions();
     let scale = size as f64 / w.max(h) as f64;
     let nw = ((w as f64 * scale).round() as u32).clamp(1, size);
@@ -194,15 +207,19 @@ pub fn fit_on_white(image: &RgbaImage, size: u32) -> RgbImage {
         image::imageops::resize(image, nw, nh, image::imageops::FilterType::CatmullRom)
     };
     let (ox, oy) = ((size - nw) / 2, (size - nh) / 2);
-    let mut out = RgbImage::from_pixel(size, size, image::Rgb([255, 255, 255]));
-    for (x, y, p) in resized.enumerate_pixels() {
+    let mut out = RgbaImage::new(size, size);
+    image::imageops::replace(&mut out, &resized, i64::from(ox), i64::from(oy));
+    out
+}
+
+/// Composites straight-alpha `image` onto white (a transparent pixel becomes white).
+pub fn flatten_on_white(image: &RgbaImage) -> RgbImage {
+    let (w, h) = image.dimensions();
+    let mut out = RgbImage::new(w, h);
+    for (x, y, p) in image.enumerate_pixels() {
         let a = p[3] as u32;
         let blend = |c: u8| ((c as u32 * a + 255 * (255 - a) + 127) / 255) as u8;
-        out.put_pixel(
-            x + ox,
-            y + oy,
-            image::Rgb([blend(p[0]), blend(p[1]), blend(p[2])]),
-        );
+        out.put_pixel(x, y, image::Rgb([blend(p[0]), blend(p[1]), blend(p[2])]));
     }
     out
 }

@@ -1,5 +1,6 @@
 // The mash-up canvas (Garces et al. 2014 §5.7.3): search results sorted by style to what is on
-// the canvas, dragged onto an HTML5 canvas, arranged, exported and saved. No framework.
+// the canvas, dragged onto an HTML5 canvas, arranged, exported and saved. No framework. The
+// exports, saved compositions and a worker's submission are mashup_io.js (loaded first).
 //
 // Configuration: data-* attributes of the root element `#mashup`:
 //   data-library     the library's name (required)
@@ -13,7 +14,10 @@
 //   data-log-url     optional: POST JSON events {"event":"search","seq":N,"q":..,"category":..,
 //                    "results":[ids…]} for every result list shown, {"event":"add","item":ID,
 //                    "search_seq":N,"position":P} (P: 1-based position in the list the piece came
-//                    from), {"event":"remove","item":ID}
+//                    from), {"event":"remove","item":ID}, {"event":"undo"|"redo","items":[ids
+//                    on the canvas after, bottom to top],"background":NAME}, {"event":"layer",
+//                    "item":ID,"from":I,"to":J} (0 = bottom), {"event":"background",
+//                    "background":NAME}
 //   data-background  optional: a fixed background name (the drop-down is hidden)
 //   data-csrf        optional: sent as the x-csrf-token header of every POST/PUT
 //   data-max-near    most reference items of one search (default 20)
@@ -24,7 +28,8 @@
 //   data-submit-url  optional: POST {document} submits the composition (#mashup-submit); on
 //                    success the page goes to data-done-url
 // The page's state is exposed for tests and the host page: the root's data-document (the JSON
-// document), data-selected (the selected piece's index or -1), data-search-seq, and on the
+// document), data-selected (the selected piece's index or -1), data-search-seq, data-logged
+// (events posted and answered), and on the
 // results list data-ids (the ids in the order shown).
 "use strict";
 (function () {
@@ -44,7 +49,6 @@
   let selected = -1;
   let undo = [], redo = [];
   let searchSeq = 0;
-  let currentId = null;
   let searchTimer = null;
   const images = new Map(); // item id → Image (its SVG, or its PNG when it has none)
   const bgImages = new Map();
@@ -63,10 +67,16 @@
   async function errorOf(resp) {
     try { return (await resp.json()).error || resp.statusText; } catch (_) { return resp.statusText; }
   }
+  // Events are posted one after another, so the server numbers them in the order they were
+  // made; data-logged counts those answered.
+  let logQueue = Promise.resolve(), logged = 0;
   function log(event) {
     if (!cfg.logUrl) return;
-    fetch(cfg.logUrl, { method: "POST", headers: headers(), body: JSON.stringify(event) })
-      .catch(() => status("could not record an event"));
+    logQueue = logQueue
+      .then(() => fetch(cfg.logUrl, { method: "POST", headers: headers(), body: JSON.stringify(event) }))
+      .then((resp) => { if (!resp.ok) status("could not record an event"); })
+      .catch(() => status("could not record an event"))
+      .then(() => { root.dataset.logged = String(++logged); });
   }
 
   // ---- drawing ----
@@ -75,8 +85,8 @@
     if (img) return img;
     img = new Image();
     img.onload = draw;
-    img.onerror = () => { // raster items have no SVG: their PNG
-      if (!img.src.endsWith(".png")) img.src = "/media/items/" + id + ".png";
+    img.onerror = () => { // raster items have no SVG: their PNG with its transparency
+      if (!img.src.endsWith(".png")) img.src = "/media/items/" + id + ".cutout.png";
     };
     img.src = "/media/items/" + id + ".svg";
     images.set(id, img);
@@ -152,29 +162,33 @@
   }
 
   // ---- history ----
+  // A step is the document before it and the piece then selected: undoing a layer change
+  // selects the piece that moved back, not whichever piece now has its old index.
   function snapshot() { return JSON.stringify(doc); }
-  function remember(before) {
+  function remember(before, sel) {
     if (before === snapshot()) return;
-    undo.push(before);
+    undo.push({ doc: before, selected: sel });
     if (undo.length > 200) undo.shift();
     redo = [];
   }
   function itemsOnCanvas() { return doc.pieces.map((p) => p.item).join(","); }
   function change(fn) {
-    const before = snapshot(), items = itemsOnCanvas();
+    const before = snapshot(), sel = selected, items = itemsOnCanvas();
     fn();
-    remember(before);
+    remember(before, sel);
     draw();
     if (items !== itemsOnCanvas()) search();
   }
   function restore(from, to) {
     if (!from.length) return;
     const items = itemsOnCanvas();
-    to.push(snapshot());
-    doc = JSON.parse(from.pop());
+    to.push({ doc: snapshot(), selected: selected });
+    const step = from.pop();
+    doc = JSON.parse(step.doc);
     bgSelect.value = doc.background;
-    if (selected >= doc.pieces.length) selected = doc.pieces.length - 1;
+    selected = step.selected < doc.pieces.length ? step.selected : -1;
     draw();
+    log({ event: from === undo ? "undo" : "redo", items: doc.pieces.map((p) => p.item), background: doc.background });
     if (items !== itemsOnCanvas()) search();
   }
 
@@ -318,7 +332,7 @@
     if (!mode) return;
     e.preventDefault();
     canvas.setPointerCapture(e.pointerId);
-    const p = doc.pieces[selected], before = snapshot();
+    const p = doc.pieces[selected], sel = selected, before = snapshot();
     const start = { x: x, y: y, px: p.x, py: p.y, scale: p.scale, d: Math.max(1, Math.hypot(x - p.x, y - p.y)) };
     const move = (ev) => {
       const [mx, my] = toCanvas(ev);
@@ -336,7 +350,7 @@
       canvas.removeEventListener("pointermove", move);
       canvas.removeEventListener("pointerup", up);
       canvas.removeEventListener("pointercancel", up);
-      remember(before);
+      remember(before, sel);
       draw();
     };
     canvas.addEventListener("pointermove", move);
@@ -349,12 +363,14 @@
   // ---- tools ----
   function layer(to) {
     if (selected < 0) return;
+    const from = selected, item = doc.pieces[from].item;
     change(() => {
       const [p] = doc.pieces.splice(selected, 1);
       const n = doc.pieces.length;
       selected = to === "top" ? n : to === "bottom" ? 0 : clamp(selected + (to === "up" ? 1 : -1), 0, n);
       doc.pieces.splice(selected, 0, p);
     });
+    if (selected !== from) log({ event: "layer", item: item, from: from, to: selected });
   }
   function remove() {
     if (selected < 0) return;
@@ -387,7 +403,10 @@
     bgSelect.value = cfg.background;
     $("mashup-background-label").hidden = true;
   }
-  bgSelect.addEventListener("change", () => change(() => { doc.background = bgSelect.value; }));
+  bgSelect.addEventListener("change", () => {
+    change(() => { doc.background = bgSelect.value; });
+    log({ event: "background", background: doc.background });
+  });
   $("mashup-search").addEventListener("submit", (e) => { e.preventDefault(); search(); });
   $("mashup-category").addEventListener("change", search);
   if ($("mashup-model")) $("mashup-model").addEventListener("change", search);
@@ -397,92 +416,18 @@
     location.search = "?" + new URLSearchParams({ library: librarySelect.value });
   });
 
-  // ---- export ----
-  async function exportAs(format) {
-    const resp = await fetch(cfg.renderUrl + "?format=" + format, {
-      method: "POST", headers: headers(), body: JSON.stringify({ library: cfg.library, document: doc }) });
-    if (!resp.ok) { status("Export failed: " + await errorOf(resp)); return; }
-    const blob = await resp.blob();
-    const a = document.createElement("a");
-    a.href = URL.createObjectURL(blob);
-    a.download = ($("mashup-name").value.trim() || "composition") + "." + format;
-    document.body.append(a);
-    a.click();
-    a.remove();
-    setTimeout(() => URL.revokeObjectURL(a.href), 10000);
-    root.dataset.lastExport = format + ":" + blob.size;
-    status("Exported " + format.toUpperCase() + " (" + Math.round(blob.size / 1024) + " KB).");
-  }
-  if (cfg.renderUrl) {
-    $("mashup-export-png").addEventListener("click", () => exportAs("png"));
-    $("mashup-export-svg").addEventListener("click", () => exportAs("svg"));
-  } else {
-    $("mashup-export-png").hidden = true;
-    $("mashup-export-svg").hidden = true;
-  }
-
-  // ---- save / load ----
-  async function refreshSaved() {
-    const resp = await fetch(cfg.saveUrl + "?" + new URLSearchParams({ library: cfg.library }));
-    if (!resp.ok) return;
-    const saved = $("mashup-saved");
-    saved.replaceChildren(new Option("—", ""));
-    for (const c of (await resp.json()).compositions) {
-      saved.add(new Option(c.name + " (" + c.pieces + " pieces)", String(c.id), false, String(c.id) === String(currentId)));
-    }
-  }
-  async function save(asNew) {
-    const name = $("mashup-name").value.trim();
-    if (!name) { status("Give the composition a name first."); $("mashup-name").focus(); return; }
-    const update = currentId && !asNew;
-    const resp = await fetch(update ? cfg.saveUrl + "/" + currentId : cfg.saveUrl, {
-      method: update ? "PUT" : "POST", headers: headers(),
-      body: JSON.stringify(update ? { name: name, document: doc } : { library: cfg.library, name: name, document: doc }) });
-    if (!resp.ok) { status("Not saved: " + await errorOf(resp)); return; }
-    currentId = (await resp.json()).id;
-    root.dataset.compositionId = String(currentId);
-    status("Saved “" + name + "”.");
-    refreshSaved();
-  }
-  async function load() {
-    const id = $("mashup-saved").value;
-    if (!id) return;
-    const resp = await fetch(cfg.saveUrl + "/" + id);
-    if (!resp.ok) { status("Not loaded: " + await errorOf(resp)); return; }
-    const c = await resp.json();
-    change(() => { doc = c.document; selected = -1; });
-    bgSelect.value = doc.background;
-    canvas.width = doc.width; canvas.height = doc.height;
-    currentId = c.id;
-    root.dataset.compositionId = String(currentId);
-    $("mashup-name").value = c.name;
-    draw();
-    status("Loaded “" + c.name + "”.");
-  }
-  if (cfg.saveUrl) {
-    $("mashup-save").addEventListener("submit", (e) => { e.preventDefault(); save(false); });
-    $("mashup-save-new").addEventListener("click", () => save(true));
-    $("mashup-load").addEventListener("click", load);
-    $("mashup-new").addEventListener("click", () => {
-      change(() => { doc.pieces = []; selected = -1; });
-      currentId = null; delete root.dataset.compositionId; $("mashup-name").value = "";
-    });
-    refreshSaved();
-  } else {
-    $("mashup-save").hidden = true;
-  }
-
-  // ---- a worker's submission ----
-  if (cfg.submitUrl) {
-    $("mashup-submit").addEventListener("click", async () => {
-      const button = $("mashup-submit");
-      button.disabled = true;
-      const resp = await fetch(cfg.submitUrl, { method: "POST", headers: headers(), body: JSON.stringify({ document: doc }) });
-      if (resp.ok) { location.href = cfg.doneUrl; return; }
-      showError(await errorOf(resp));
-      button.disabled = false;
-    });
-  }
+  // ---- files: export, save and load, a worker's submission (mashup_io.js) ----
+  window.mashupIO({
+    root, cfg, $, headers, status, errorOf, showError,
+    document: () => doc,
+    replaceDocument: (d) => {
+      change(() => { doc = d; selected = -1; });
+      bgSelect.value = doc.background;
+      canvas.width = doc.width; canvas.height = doc.height;
+      draw();
+    },
+    clearCanvas: () => change(() => { doc.pieces = []; selected = -1; }),
+  });
 
   bgSelect.value = doc.background;
   draw();

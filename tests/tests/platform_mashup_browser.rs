@@ -14,7 +14,7 @@ use fantoccini::{Client, Locator};
 use serde_json::{Value, json};
 
 /// Six drawings of four styles as `clipart`, and the admin.
-fn import(db: &TestDb) {
+pub(crate) fn import(db: &TestDb) {
     let dir = tempfile::tempdir().expect("temp dir");
     for file in [
         "noto/dog-face.svg",

@@ -2,8 +2,8 @@
 //! raters compared). The SVG keeps every piece's vector drawing: each item's stored SVG is
 //! re-serialised by usvg with a per-piece id prefix (`p3-…`), so two copies of one item never
 //! share an id, and nested in a `<g id="piece-N">` carrying the piece's translate, rotate and
-//! scale; raster items are embedded as PNG `<image>`s and the background photograph as a JPEG
-//! data URI. The PNG is that SVG rendered by resvg, so both exports show the same picture.
+//! scale; raster items are embedded as PNG `<image>`s of their cut-out (alpha kept, so the
+//! background shows around them) and the background photograph as a JPEG data URI. The PNG is that SVG rendered by resvg, so both exports show the same picture.
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
@@ -22,7 +22,8 @@ use crate::store::ids::ItemId;
 pub enum ItemSource {
     /// The usvg-normalised SVG stored on import.
     Svg(String),
-    /// The stored 400x400 PNG (raster items, and items imported before SVGs were kept).
+    /// A stored 400x400 PNG: a raster item's cut-out with its transparency (migration 0017),
+    /// or the opaque rendering of items imported before cut-outs or SVGs were kept.
     Png(Vec<u8>),
 }
 
@@ -38,7 +39,7 @@ pub async fn load_sources(db: &Db, doc: &Document) -> Result<Sources> {
     }
     let placeholders: Vec<String> = (1..=wanted.len()).map(|i| format!("${i}")).collect();
     let sql = format!(
-        "SELECT id, svg, png FROM items WHERE id IN ({})",
+        "SELECT id, svg, cutout, png FROM items WHERE id IN ({})",
         placeholders.join(", ")
     );
     // Safe: the text holds only generated `$n` placeholders; the ids are bound.
@@ -49,9 +50,10 @@ pub async fn load_sources(db: &Db, doc: &Document) -> Result<Sources> {
     for row in query.fetch_all(&db.pool).await? {
         let id = ItemId(row.try_get("id")?);
         let svg: Option<String> = row.try_get("svg")?;
-        let source = match svg {
-            Some(s) => ItemSource::Svg(s),
-            None => ItemSource::Png(row.try_get("png")?),
+        let source = match (svg, row.try_get::<Option<Vec<u8>>, _>("cutout")?) {
+            (Some(s), _) => ItemSource::Svg(s),
+            (None, Some(cutout)) => ItemSource::Png(cutout),
+            (None, None) => ItemSource::Png(row.try_get("png")?),
         };
         out.insert(id, source);
     }

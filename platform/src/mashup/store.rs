@@ -210,3 +210,18 @@ pub async fn item_svg(db: &Db, id: ItemId) -> Result<Option<String>> {
         .ok_or(AppError::NotFound("item"))?;
     Ok(r.try_get("svg")?)
 }
+
+/// What the canvas draws a raster item from: its cut-out with the transparency kept
+/// (migration 0017), or, for items imported before it, the opaque rendering (404 when there is
+/// no item).
+pub async fn item_cutout(db: &Db, id: ItemId) -> Result<Vec<u8>> {
+    let r = sqlx::query("SELECT cutout, png FROM items WHERE id = $1")
+        .bind(id.0)
+        .fetch_optional(&db.pool)
+        .await?
+        .ok_or(AppError::NotFound("item"))?;
+    match r.try_get::<Option<Vec<u8>>, _>("cutout")? {
+        Some(c) => Ok(c),
+        None => Ok(r.try_get("png")?),
+    }
+}

@@ -45,6 +45,12 @@ const ASSETS: &[Asset] = &[
         content_type: "text/javascript; charset=utf-8",
         body: include_bytes!("../../static/mashup.js"),
     },
+    // Loaded before mashup.js, which hands it the canvas's document.
+    Asset {
+        name: "mashup_io.js",
+        content_type: "text/javascript; charset=utf-8",
+        body: include_bytes!("../../static/mashup_io.js"),
+    },
     // 32×32 PNG in an ICO container: three dots, a triplet, on the links' blue.
     Asset {
         name: "favicon.ico",

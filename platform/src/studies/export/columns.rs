@@ -5,7 +5,7 @@ use serde_json::{Value, json};
 
 use super::table::{Column, Kind, Table};
 
-const fn text(name: &'static str, about: &'static str) -> Column {
+pub(super) const fn text(name: &'static str, about: &'static str) -> Column {
     Column {
         name,
         kind: Kind::Text,
@@ -13,7 +13,7 @@ const fn text(name: &'static str, about: &'static str) -> Column {
     }
 }
 
-const fn number(name: &'static str, about: &'static str) -> Column {
+pub(super) const fn number(name: &'static str, about: &'static str) -> Column {
     Column {
         name,
         kind: Kind::Number,
@@ -21,7 +21,7 @@ const fn number(name: &'static str, about: &'static str) -> Column {
     }
 }
 
-const WORKER_ID: &str = "the worker's id on their crowd platform: MTurk workerId, Prolific \
+pub(super) const WORKER_ID: &str = "the worker's id on their crowd platform: MTurk workerId, Prolific \
                          PROLIFIC_PID, the participant parameter of a direct link (a pseudonym \
                          W… in a pseudonymous export)";
 
@@ -231,12 +231,14 @@ pub(super) const REPORT: Table = Table {
 };
 
 /// Every CSV file, in the order of [`super::FILES`].
-pub(super) const TABLES: [&Table; 9] = [
+pub(super) const TABLES: [&Table; 11] = [
     &TRIPLETS,
     &REASONS,
     &WORKERS,
     &ASSIGNMENTS,
     &BONUSES,
+    &super::mashup::SEARCHES,
+    &super::mashup::EVENTS,
     &MTURK_DECISIONS,
     &MTURK_BONUSES,
     &PROLIFIC_BONUSES,
@@ -288,7 +290,8 @@ pub(super) fn notes() -> Value {
             use. It identifies a person: share only a pseudonymous export (pseudonymous=true).",
         "filters": {
             "default": "Without options, triplets.csv, reasons.csv, workers.csv, \
-                assignments.csv and bonuses.csv hold the completed, non-rejected HITs and, of \
+                assignments.csv, bonuses.csv and the mash-up study's mashup_searches.csv and \
+                mashup_events.csv hold the completed, non-rejected HITs and, of \
                 their questions, the main ones only (training answers are never exported).",
             "include_controls": {
                 "triplets.csv": "adds the answers to hidden controls (tuple_id control:ID)",
@@ -296,6 +299,8 @@ pub(super) fn notes() -> Value {
                 "workers.csv": "answered counts the hidden controls too",
                 "assignments.csv": "questions and answered count the hidden controls too",
                 "bonuses.csv": "no effect (a bonus is for a whole HIT)",
+                "mashup_searches.csv": "no effect (a mash-up HIT has no controls)",
+                "mashup_events.csv": "no effect (a mash-up HIT has no controls)",
             },
             "include_rejected": {
                 "triplets.csv": "adds the answers of rejected HITs",
@@ -303,6 +308,8 @@ pub(super) fn notes() -> Value {
                 "workers.csv": "adds the workers whose HIT was rejected",
                 "assignments.csv": "adds the rejected HITs",
                 "bonuses.csv": "adds the bonuses recorded for rejected HITs",
+                "mashup_searches.csv": "adds the searches of rejected HITs",
+                "mashup_events.csv": "adds the canvas events of rejected HITs",
             },
             "include_incomplete": {
                 "triplets.csv": "adds the answers of HITs that are not completed (in \
@@ -312,6 +319,8 @@ pub(super) fn notes() -> Value {
                 "assignments.csv": "adds the HITs that are not completed",
                 "bonuses.csv": "adds the bonuses of HITs that are not completed (e.g. \
                     screened out)",
+                "mashup_searches.csv": "adds the searches of HITs not submitted",
+                "mashup_events.csv": "adds the canvas events of HITs not submitted",
             },
             "pseudonymous": {
                 "every file": "worker_id and triplets.csv's worker hold a pseudonym (W and \

@@ -1,7 +1,8 @@
 //! Exports of a study: `triplets.csv` in the learner's format (`a,b,c,q,worker,tuple_id`, q = 1
 //! when A was judged closer to B, plus `worker_id`), `reasons.csv`, `workers.csv`,
-//! `assignments.csv`, `bonuses.csv`, the payment files (`mturk_decisions.csv` for MTurk's batch
-//! approve/reject upload, `mturk_bonuses.csv` for `aws mturk send-bonus`,
+//! `assignments.csv`, `bonuses.csv`, the mash-up study's `mashup_searches.csv` and
+//! `mashup_events.csv` (header only for other kinds), the payment files (`mturk_decisions.csv`
+//! for MTurk's batch approve/reject upload, `mturk_bonuses.csv` for `aws mturk send-bonus`,
 //! `prolific_bonuses.csv` for Prolific's bulk bonus), the study's report (`report.json`, the
 //! report endpoint's body, and `report.csv`, its numbers one per row), `external_question.xml` and
 //! `manifest.json` (settings, items in stable order, the data dictionary of every column, and
@@ -24,6 +25,7 @@ use crate::time::iso8601;
 
 mod columns;
 mod data;
+mod mashup;
 mod report;
 mod table;
 
@@ -93,6 +95,8 @@ pub const FILES: &[&str] = &[
     "workers.csv",
     "assignments.csv",
     "bonuses.csv",
+    "mashup_searches.csv",
+    "mashup_events.csv",
     "mturk_decisions.csv",
     "mturk_bonuses.csv",
     "prolific_bonuses.csv",
@@ -120,6 +124,7 @@ pub async fn build(
     let items = library::list_items(db, study.library).await?;
     let names: BTreeMap<i64, String> = items.iter().map(|i| (i.id.0, i.name.clone())).collect();
     let (triplets, reasons) = answers(db, study, opts, &by_id, &names).await?;
+    let (mashup_searches, mashup_events) = mashup::rows(db, study, opts, &by_id, &names).await?;
     let bonuses = bonus::list(db, study.id).await?;
     let mut bonus_total: HashMap<i64, i64> = HashMap::new();
     for b in &bonuses {
@@ -268,6 +273,8 @@ pub async fn build(
             "workers": workers.len(),
             "assignments": assignments.len(),
             "bonuses": bonus_rows.len(),
+            "mashup_searches": mashup_searches.len(),
+            "mashup_events": mashup_events.len(),
         },
         "items": manifest_items,
         "files": files,
@@ -290,6 +297,14 @@ pub async fn build(
             columns::ASSIGNMENTS.csv(&assignments)?,
         ),
         ("bonuses.csv".into(), columns::BONUSES.csv(&bonus_rows)?),
+        (
+            "mashup_searches.csv".into(),
+            mashup::SEARCHES.csv(&mashup_searches)?,
+        ),
+        (
+            "mashup_events.csv".into(),
+            mashup::EVENTS.csv(&mashup_events)?,
+        ),
     ];
     if !opts.pseudonymous {
         out.push((

@@ -132,7 +132,12 @@ pub async fn import_paths(
             item.tags = words.clone();
         }
         let rendered = tokio::task::spawn_blocking(move || {
-            let image = item.render()?;
+            // A raster is decoded once: its cut-out, flattened onto white for the features.
+            let cutout = item.render_cutout()?;
+            let image = match &cutout {
+                Some(c) => learner::render::flatten_on_white(c),
+                None => item.render()?,
+            };
             let svg = match &item.source {
                 Source::SvgFile(path) => {
                     let bytes = std::fs::read(path).map_err(|source| learner::Error::Io {
@@ -144,11 +149,11 @@ pub async fn import_paths(
                 Source::SvgText(text) => Some(super::svg_source(text.as_bytes())?),
                 Source::RasterFile(_) => None,
             };
-            Ok::<_, learner::Error>((item, image, svg))
+            Ok::<_, learner::Error>((item, image, cutout, svg))
         })
         .await
         .map_err(AppError::internal)?;
-        let (item, image, svg) = match rendered {
+        let (item, image, cutout, svg) = match rendered {
             Ok(r) => r,
             Err(e) => {
                 report.skipped.push((at, e.to_string()));
@@ -160,6 +165,7 @@ pub async fn import_paths(
             name: item.id,
             tags: item.tags,
             image,
+            cutout,
             svg,
         };
         match insert_item(db, library, new).await? {

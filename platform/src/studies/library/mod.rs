@@ -5,7 +5,7 @@
 use std::collections::HashMap;
 use std::io::Cursor;
 
-use image::RgbImage;
+use image::{RgbImage, RgbaImage};
 use sqlx::Row;
 
 use crate::error::{AppError, Result};
@@ -97,8 +97,11 @@ pub struct NewItem {
     pub style: Option<String>,
     /// Keywords.
     pub tags: Vec<String>,
-    /// 400x400 rendering.
+    /// 400x400 rendering on white (what the features see).
     pub image: RgbImage,
+    /// For a raster item, the same 400x400 rendering with its transparency kept: a mash-up
+    /// places it on its own background (§5.7.3). `None` for drawings (their SVG keeps it).
+    pub cutout: Option<RgbaImage>,
     /// The drawing's vector source as usvg re-serialised it ([`svg_source`]); `None` for a
     /// raster item. Kept so mash-up exports stay vector (§5.7.3).
     pub svg: Option<String>,
@@ -131,12 +134,21 @@ pub async fn insert_item(db: &Db, library: LibraryId, item: NewItem) -> Result<I
         style,
         tags,
         image,
+        cutout,
         svg,
     } = item;
     let prepared = tokio::task::spawn_blocking(move || -> Result<_> {
         let mut png = Vec::new();
         image
             .write_to(&mut Cursor::new(&mut png), image::ImageFormat::Png)
+            .map_err(AppError::internal)?;
+        let cutout = cutout
+            .map(|c| {
+                let mut bytes = Vec::new();
+                c.write_to(&mut Cursor::new(&mut bytes), image::ImageFormat::Png)
+                    .map(|()| bytes)
+            })
+            .transpose()
             .map_err(AppError::internal)?;
         let features = match learner::features::extract(image) {
             Ok(f) => f,
@@ -147,11 +159,11 @@ pub async fn insert_item(db: &Db, library: LibraryId, item: NewItem) -> Result<I
             }
             Err(e) => return Ok(Err(format!("style features failed: {e}"))),
         };
-        Ok(Ok((png, features.to_vec())))
+        Ok(Ok((png, cutout, features.to_vec())))
     })
     .await
     .map_err(AppError::internal)??;
-    let (png, features) = match prepared {
+    let (png, cutout, features) = match prepared {
         Ok(p) => p,
         Err(reason) => return Ok(Inserted::Unusable(reason)),
     };
@@ -164,8 +176,8 @@ pub async fn insert_item(db: &Db, library: LibraryId, item: NewItem) -> Result<I
     let seq: i64 = seq_row.try_get("m")?;
     let id = ItemId::generate();
     let result = sqlx::query(
-        "INSERT INTO items (id, library_id, seq, name, style, tags, png, features, svg) \
-         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9) ON CONFLICT DO NOTHING",
+        "INSERT INTO items (id, library_id, seq, name, style, tags, png, features, svg, cutout) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10) ON CONFLICT DO NOTHING",
     )
     .bind(id.0)
     .bind(library.0)
@@ -176,6 +188,7 @@ pub async fn insert_item(db: &Db, library: LibraryId, item: NewItem) -> Result<I
     .bind(png)
     .bind(serde_json::to_string(&features).map_err(AppError::internal)?)
     .bind(svg)
+    .bind(cutout)
     .execute(&mut *db.write_conn().await?)
     .await?;
     Ok(if result.rows_affected() == 1 {

@@ -3,7 +3,7 @@
 
 use std::io::Cursor;
 
-use image::RgbImage;
+use image::{RgbImage, RgbaImage};
 
 use crate::error::{AppError, Result};
 
@@ -22,9 +22,11 @@ pub fn limit_in_words() -> String {
     )
 }
 
-/// Validates one uploaded file (by name and content) and renders it. SVG must parse and render;
-/// rasters must be PNG/JPEG within [`MAX_UPLOAD_SIDE`]; everything within [`MAX_UPLOAD_BYTES`].
-pub fn validate_upload(filename: &str, bytes: &[u8]) -> Result<RgbImage> {
+/// Validates one uploaded file (by name and content) and renders it: the 400x400 rendering on
+/// white and, for a raster, the same with its transparency kept (the mash-up's cut-out). SVG
+/// must parse and render; rasters must be PNG/JPEG within [`MAX_UPLOAD_SIDE`]; everything
+/// within [`MAX_UPLOAD_BYTES`].
+pub fn validate_upload(filename: &str, bytes: &[u8]) -> Result<(RgbImage, Option<RgbaImage>)> {
     if bytes.is_empty() {
         return Err(AppError::BadRequest(format!("{filename}: empty file")));
     }
@@ -37,6 +39,7 @@ pub fn validate_upload(filename: &str, bytes: &[u8]) -> Result<RgbImage> {
     let lower = filename.to_ascii_lowercase();
     if lower.ends_with(".svg") {
         learner::render::render_svg(bytes)
+            .map(|image| (image, None))
             .map_err(|e| AppError::BadRequest(format!("{filename}: not a usable SVG: {e}")))
     } else if lower.ends_with(".png") || lower.ends_with(".jpg") || lower.ends_with(".jpeg") {
         let reader = image::ImageReader::new(Cursor::new(bytes))
@@ -50,8 +53,9 @@ pub fn validate_upload(filename: &str, bytes: &[u8]) -> Result<RgbImage> {
                 "{filename}: {w}x{h} pixels, the limit is {MAX_UPLOAD_SIDE}x{MAX_UPLOAD_SIDE}"
             )));
         }
-        learner::render::render_raster(bytes)
-            .map_err(|e| AppError::BadRequest(format!("{filename}: not a readable image: {e}")))
+        let cutout = learner::render::render_raster_rgba(bytes)
+            .map_err(|e| AppError::BadRequest(format!("{filename}: not a readable image: {e}")))?;
+        Ok((learner::render::flatten_on_white(&cutout), Some(cutout)))
     } else {
         Err(AppError::BadRequest(format!(
             "{filename}: unsupported type (use .svg, .png, .jpg)"
@@ -83,8 +87,10 @@ mod tests {
         ));
         let ok = br#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><rect width="5" height="5" fill="red"/></svg>"#;
         assert_eq!(
-            validate_upload("a.svg", ok).map(|i| i.width()).ok(),
-            Some(400)
+            validate_upload("a.svg", ok)
+                .map(|(i, c)| (i.width(), c.is_none()))
+                .ok(),
+            Some((400, true))
         );
     }
 }

@@ -1,5 +1,6 @@
 //! The mash-up study's log (migration 0015): each assignment's condition, every search the
 //! server answered with the list it returned, every piece added or removed, the submission.
+//! The events the canvas posts, and how each is checked, are [`super::events`].
 //!
 //! Positions cannot be faked: an `add` names the search it came from and its 1-based position
 //! in that list, and is accepted only when the server's own record of that list has that item
@@ -9,9 +10,9 @@
 
 use std::collections::HashMap;
 
-use serde::{Deserialize, Serialize};
 use sqlx::Row;
 
+pub use super::events::{Event, check_add, check_background, record_event};
 use super::{Condition, condition_at};
 use crate::error::{AppError, Result};
 use crate::store::db::{Backend, Db, now_ms};
@@ -19,39 +20,6 @@ use crate::store::ids::{AssignmentId, ItemId, StudyId};
 
 /// Longest logged query text, in characters (longer searches are refused before they run).
 pub const MAX_QUERY_CHARS: usize = 200;
-
-/// An event the canvas posts (`data-log-url` of mashup.js).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
-#[serde(tag = "event", rename_all = "lowercase", deny_unknown_fields)]
-pub enum Event {
-    /// A search the page shows: must be one the server answered, with the same list (the
-    /// server logged it when it answered, so this only confirms it).
-    Search {
-        /// The search's number (from the search response).
-        seq: i64,
-        /// The query text.
-        q: String,
-        /// The category, if any.
-        #[serde(default)]
-        category: Option<String>,
-        /// The ids shown, in order.
-        results: Vec<ItemId>,
-    },
-    /// A piece dragged or clicked onto the canvas.
-    Add {
-        /// The item.
-        item: ItemId,
-        /// The search whose list it came from.
-        search_seq: i64,
-        /// Its 1-based position in that list.
-        position: i64,
-    },
-    /// A piece deleted from the canvas.
-    Remove {
-        /// The item.
-        item: ItemId,
-    },
-}
 
 /// A stored add or remove, in order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -68,24 +36,6 @@ pub enum Logged {
         /// The item.
         item: ItemId,
     },
-}
-
-/// Whether `item` is at 1-based `position` of `results` (a 400 saying what is there otherwise).
-pub fn check_add(results: &[ItemId], item: ItemId, position: i64) -> Result<()> {
-    let at = usize::try_from(position)
-        .ok()
-        .and_then(|p| p.checked_sub(1))
-        .and_then(|i| results.get(i));
-    match at {
-        Some(&found) if found == item => Ok(()),
-        Some(&found) => Err(AppError::BadRequest(format!(
-            "add: position {position} of that search is item {found}, not {item}"
-        ))),
-        None => Err(AppError::BadRequest(format!(
-            "add: position {position} is not in 1..={} of that search",
-            results.len()
-        ))),
-    }
 }
 
 /// What the logged events say about the canvas: per item, the positions of the pieces still
@@ -117,8 +67,9 @@ pub fn replay(events: &[Logged]) -> Canvas {
 
 /// The logged position of each piece of a document whose pieces are the items `pieces`: for
 /// an item used k times, the latest k of its pieces still on the canvas, or — when the
-/// canvas's undo and redo (which the page does not log) brought back removed pieces — the
-/// latest k of its adds. A piece whose item was added from search results fewer times than
+/// canvas's undo and redo brought back removed pieces — the latest k of its adds. (Undo and
+/// redo are logged with the items they leave, for analysis; the positions keep this rule, so
+/// each is the position of an add the server checked.) A piece whose item was added from search results fewer times than
 /// it is used is a 400: every piece used must have a position the server checked.
 pub fn positions(pieces: &[ItemId], canvas: &Canvas) -> Result<Vec<i64>> {
     let mut uses: HashMap<ItemId, usize> = HashMap::new();
@@ -293,10 +244,12 @@ pub async fn search_count(db: &Db, assignment: AssignmentId) -> Result<i64> {
     .try_get("n")?)
 }
 
-/// The adds and removes of `assignment`, in order.
+/// The adds and removes of `assignment`, in order (the other canvas edits do not change which
+/// list a piece came from).
 pub async fn events(db: &Db, assignment: AssignmentId) -> Result<Vec<Logged>> {
     let rows = sqlx::query(
-        "SELECT event, item_id, position FROM mashup_events WHERE assignment_id = $1 ORDER BY seq",
+        "SELECT event, item_id, position FROM mashup_events \
+         WHERE assignment_id = $1 AND event IN ('add', 'remove') ORDER BY seq",
     )
     .bind(assignment.0)
     .fetch_all(&db.pool)
@@ -318,101 +271,9 @@ pub async fn events(db: &Db, assignment: AssignmentId) -> Result<Vec<Logged>> {
         .collect()
 }
 
-/// Validates `event` against the server's log of `assignment` and stores it (a `search` event
-/// is only checked: the search was logged when it was answered).
-pub async fn record_event(db: &Db, assignment: AssignmentId, event: &Event) -> Result<()> {
-    let unknown = |seq: i64| AppError::BadRequest(format!("no search {seq} was answered"));
-    let (kind, item, search_seq, position) = match event {
-        Event::Search {
-            seq,
-            q,
-            category,
-            results,
-        } => {
-            let (logged_q, logged_category, logged) = search_results(db, assignment, *seq)
-                .await?
-                .ok_or_else(|| unknown(*seq))?;
-            // The page sends an empty category as "", the log holds none.
-            let category = category.as_deref().map(str::trim).filter(|c| !c.is_empty());
-            if (logged_q.as_str(), logged_category.as_deref(), &logged)
-                != (q.trim(), category, results)
-            {
-                return Err(AppError::BadRequest(format!(
-                    "search {seq}: the query or list differs from what the server returned"
-                )));
-            }
-            return Ok(());
-        }
-        Event::Add {
-            item,
-            search_seq,
-            position,
-        } => {
-            let (_, _, results) = search_results(db, assignment, *search_seq)
-                .await?
-                .ok_or_else(|| unknown(*search_seq))?;
-            check_add(&results, *item, *position)?;
-            ("add", *item, Some(*search_seq), Some(*position))
-        }
-        Event::Remove { item } => {
-            // Lenient about how many: the page's undo and redo are not logged.
-            if !replay(&events(db, assignment).await?)
-                .all
-                .contains_key(item)
-            {
-                return Err(AppError::BadRequest(format!(
-                    "remove: item {item} was never added from search results"
-                )));
-            }
-            ("remove", *item, None, None)
-        }
-    };
-    let mut tx = db.begin_write().await?;
-    lock_row(&mut tx, db.backend, Locked::Assignment, assignment.0).await?;
-    let seq: i64 = sqlx::query(
-        "SELECT COALESCE(MAX(seq), 0) + 1 AS next FROM mashup_events WHERE assignment_id = $1",
-    )
-    .bind(assignment.0)
-    .fetch_one(&mut *tx)
-    .await?
-    .try_get("next")?;
-    sqlx::query(
-        "INSERT INTO mashup_events \
-         (assignment_id, seq, event, item_id, search_seq, position, created_at) \
-         VALUES ($1, $2, $3, $4, $5, $6, $7)",
-    )
-    .bind(assignment.0)
-    .bind(seq)
-    .bind(kind)
-    .bind(item.0)
-    .bind(search_seq)
-    .bind(position)
-    .bind(now_ms())
-    .execute(&mut *tx)
-    .await?;
-    tx.commit().await?;
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn an_add_must_name_the_item_at_its_position() {
-        let results = [ItemId(5), ItemId(9), ItemId(2)];
-        check_add(&results, ItemId(5), 1).unwrap();
-        check_add(&results, ItemId(2), 3).unwrap();
-        for (item, position) in [(5, 2), (2, 4), (5, 0), (5, -1), (7, 1)] {
-            assert!(
-                matches!(
-                    check_add(&results, ItemId(item), position),
-                    Err(AppError::BadRequest(_))
-                ),
-                "item {item} at {position} accepted"
-            );
-        }
-    }
 
     #[test]
     fn pieces_take_the_positions_of_the_latest_adds_of_their_item() {
@@ -441,28 +302,5 @@ mod tests {
         assert_eq!(p, vec![4, 7, 12]);
         assert!(positions(&[ItemId(1), ItemId(1), ItemId(1)], &c).is_err());
         assert!(positions(&[ItemId(3)], &c).is_err());
-    }
-
-    #[test]
-    fn events_parse_as_mashup_js_posts_them() {
-        let add: Event =
-            serde_json::from_str(r#"{"event":"add","item":7,"search_seq":2,"position":3}"#)
-                .unwrap();
-        assert_eq!(
-            add,
-            Event::Add {
-                item: ItemId(7),
-                search_seq: 2,
-                position: 3
-            }
-        );
-        let search: Event = serde_json::from_str(
-            r#"{"event":"search","seq":1,"q":"cat","category":null,"results":[1,2]}"#,
-        )
-        .unwrap();
-        assert!(matches!(search, Event::Search { seq: 1, .. }));
-        assert!(serde_json::from_str::<Event>(r#"{"event":"remove","item":7}"#).is_ok());
-        assert!(serde_json::from_str::<Event>(r#"{"event":"move","item":7}"#).is_err());
-        assert!(serde_json::from_str::<Event>(r#"{"event":"remove","item":7,"x":1}"#).is_err());
     }
 }

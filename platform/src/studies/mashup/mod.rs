@@ -14,6 +14,7 @@
 mod conditions;
 #[cfg(test)]
 mod db_tests;
+pub mod events;
 pub mod log;
 pub mod pool;
 pub mod report;

@@ -131,6 +131,7 @@ async fn render_item(
         style: None,
         tags: Vec::new(),
         image,
+        cutout: None,
         svg: Some(svg),
     };
     match library::insert_item(db, library, item).await? {

@@ -187,6 +187,7 @@ mod tests {
                     400,
                     image::Rgb([i * 20, 255 - i * 20, 90]),
                 ),
+                cutout: None,
                 svg: None,
             };
             library::insert_item(&db, lib, item).await.expect("item");

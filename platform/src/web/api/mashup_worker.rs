@@ -220,12 +220,14 @@ pub(super) async fn mashup_search(
 
 /// Logs a canvas event: a search shown (checked against the server's log), a piece added from
 /// a result list (accepted only when that list had that item at that position), a piece
-/// removed.
+/// removed, an undo or redo, a layer change, a background change (`studies::mashup::events`).
 #[utoipa::path(post, path = "/api/v1/assignments/{token}/mashup/events",
     params(("token" = String, Path)), request_body = Event,
     responses((status = 200, body = OkBody),
-              (status = 400, description = "A bad field, an unknown search, a position that does \
-                  not hold the item, or a removed item that was never added", body = ErrorBody),
+              (status = 400, description = "An unknown event or field, an unknown search, a \
+                  position that does not hold the item, an item never added from a result list, \
+                  a layer out of range, or a background that is not the canvas's (or not the \
+                  task's fixed one)", body = ErrorBody),
               (status = 404, description = "No assignment has this token, or its study is not a \
                   mash-up study", body = ErrorBody),
               (status = 409, description = "The assignment is not composing", body = ErrorBody)))]
@@ -234,8 +236,9 @@ pub(super) async fn mashup_event(
     ApiPath(token): ApiPath<String>,
     ApiJson(event): ApiJson<Event>,
 ) -> Result<Json<OkBody>> {
-    let (a, _, _) = mashup_of(&state, &token).await?;
+    let (a, _, m) = mashup_of(&state, &token).await?;
     active(&a)?;
+    log::check_background(&event, m.background.as_deref())?;
     log::record_event(&state.db, a.id, &event).await?;
     Ok(Json(OkBody { ok: true }))
 }

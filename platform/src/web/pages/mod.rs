@@ -116,11 +116,17 @@ async fn media(State(state): State<AppState>, ApiPath(file): ApiPath<String>) ->
         )
             .into_response());
     }
-    let id: ItemId = file
-        .strip_suffix(".png")
-        .and_then(|s| s.parse().ok())
-        .ok_or(AppError::NotFound("item"))?;
-    let png = library::item_png(&state.db, id).await?;
+    // `ID.cutout.png`: a raster item with its transparency, for the mash-up canvas.
+    let (id, cutout) = match file.strip_suffix(".cutout.png") {
+        Some(id) => (id, true),
+        None => (file.strip_suffix(".png").unwrap_or(""), false),
+    };
+    let id: ItemId = id.parse().map_err(|_| AppError::NotFound("item"))?;
+    let png = if cutout {
+        crate::mashup::store::item_cutout(&state.db, id).await?
+    } else {
+        library::item_png(&state.db, id).await?
+    };
     Ok((
         [
             (header::CONTENT_TYPE, "image/png"),

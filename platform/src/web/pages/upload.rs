@@ -101,18 +101,18 @@ pub async fn upload_handler(
             for (filename, bytes) in form.files {
                 let fname = filename.clone();
                 let image = tokio::task::spawn_blocking(move || {
-                    let image = library::validate_upload(&fname, &bytes)?;
+                    let (image, cutout) = library::validate_upload(&fname, &bytes)?;
                     // An SVG that rendered also parses: keep its vector source (mash-ups).
                     let svg = fname
                         .to_ascii_lowercase()
                         .ends_with(".svg")
                         .then(|| library::svg_source(&bytes).ok())
                         .flatten();
-                    Ok::<_, AppError>((image, svg))
+                    Ok::<_, AppError>((image, cutout, svg))
                 })
                 .await
                 .map_err(AppError::internal)?;
-                let (image, svg) = match image {
+                let (image, cutout, svg) = match image {
                     Ok(image) => image,
                     Err(e) => {
                         all_too_large &= matches!(e, AppError::TooLarge(_));
@@ -130,6 +130,7 @@ pub async fn upload_handler(
                     style: None,
                     tags: Vec::new(),
                     image,
+                    cutout,
                     svg,
                 };
                 match library::insert_item(&state.db, lib, item).await? {
