@@ -17,6 +17,9 @@ use crate::mashup::document::MAX_PIECES;
 use crate::store::db::{Db, now_ms};
 use crate::store::ids::{AssignmentId, ItemId};
 
+// The OpenAPI bounds of `Event` (layers 0..=199, at most 200 items) are MAX_PIECES's.
+const _: () = assert!(MAX_PIECES == 200);
+
 /// An event the canvas posts.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(tag = "event", rename_all = "lowercase", deny_unknown_fields)]
@@ -41,6 +44,7 @@ pub enum Event {
         /// The search whose list it came from.
         search_seq: i64,
         /// Its 1-based position in that list.
+        #[schema(minimum = 1)]
         position: i64,
     },
     /// A piece deleted from the canvas (Delete button, Delete or Backspace key).
@@ -51,6 +55,7 @@ pub enum Event {
     /// Undo (button, Ctrl+Z): the canvas as the step left it.
     Undo {
         /// The items of the pieces on the canvas after the step, bottom to top.
+        #[schema(max_items = 200)]
         items: Vec<ItemId>,
         /// The background after the step.
         background: String,
@@ -58,6 +63,7 @@ pub enum Event {
     /// Redo (button, Ctrl+Shift+Z or Ctrl+Y): the canvas as the step left it.
     Redo {
         /// The items of the pieces on the canvas after the step, bottom to top.
+        #[schema(max_items = 200)]
         items: Vec<ItemId>,
         /// The background after the step.
         background: String,
@@ -67,8 +73,10 @@ pub enum Event {
         /// The piece's item.
         item: ItemId,
         /// Its layer before, 0 the bottom-most piece.
+        #[schema(minimum = 0, maximum = 199)]
         from: i64,
         /// Its layer after.
+        #[schema(minimum = 0, maximum = 199)]
         to: i64,
     },
     /// The background chosen in the drop-down.
