@@ -17,6 +17,7 @@
 pub mod edges;
 mod error;
 pub mod eval;
+pub mod explore;
 pub mod features;
 pub mod iconify;
 pub mod input;
