@@ -202,6 +202,53 @@ pub enum Error {
         /// What is wrong.
         reason: String,
     },
+    /// A flat array of coordinates is not a whole number of points of the given dimension.
+    #[error("{len} values are not a whole number of points of dimension {dim}")]
+    NotAMatrix {
+        /// How many values were given.
+        len: usize,
+        /// The dimension of one point.
+        dim: usize,
+    },
+    /// A coordinate is NaN, infinite, or so large that squared distances could overflow.
+    #[error(
+        "point {row}, coordinate {column}: {value} is not finite or exceeds {limit:e} in magnitude"
+    )]
+    BadCoordinate {
+        /// 0-based point.
+        row: usize,
+        /// 0-based coordinate.
+        column: usize,
+        /// The value.
+        value: f64,
+        /// The largest magnitude allowed.
+        limit: f64,
+    },
+    /// A clustering needs a matrix with more entries than memory allows.
+    #[error(
+        "{what}: {n} points need {bytes} bytes of pairwise distances; at most {limit} points are supported"
+    )]
+    TooManyPoints {
+        /// What was being computed.
+        what: &'static str,
+        /// How many points were given.
+        n: usize,
+        /// The limit.
+        limit: usize,
+        /// Bytes the distance matrix would take.
+        bytes: u128,
+    },
+    /// Memory for a computation could not be allocated.
+    #[error("cannot allocate {bytes} bytes for {what}")]
+    OutOfMemory {
+        /// What the memory was for.
+        what: &'static str,
+        /// How much was asked for.
+        bytes: u128,
+    },
+    /// A linkage (a merge tree) read from outside is not a valid one.
+    #[error("invalid linkage: {0}")]
+    InvalidLinkage(String),
 }
 
 /// `Result` with this crate's [`Error`].

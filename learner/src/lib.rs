@@ -2,7 +2,8 @@
 //! Measure for Illustration Style" (SIGGRAPH 2014).
 //!
 //! The pipeline is SVG/PNG/Iconify → [`render`] (400x400 on white) → [`features`] (169 named
-//! values of §5.3). Everything here is pure computation over in-memory data: no printing, no
+//! values of §5.3); [`explore`] starts the style taxonomy of Garces et al. 2016 (Ward
+//! clustering, §6.5.1). Everything here is pure computation over in-memory data: no printing, no
 //! terminal, no network.
 //!
 //! ```
@@ -17,6 +18,7 @@
 pub mod edges;
 mod error;
 pub mod eval;
+pub mod explore;
 pub mod features;
 pub mod iconify;
 pub mod input;

@@ -11,6 +11,7 @@ macro_rules! outln {
 
 mod bench_cmd;
 mod bench_search;
+mod bench_ward;
 mod features_cmd;
 mod metric_cmds;
 mod render_cmd;
@@ -65,6 +66,8 @@ enum BenchCommand {
     Metric(metric_cmds::BenchMetricArgs),
     /// Style search on 200,000 items: build, memory, latencies, numpy and faiss side by side.
     Search(bench_search::BenchSearchArgs),
+    /// Ward clustering of random points, side by side with scipy.
+    Ward(bench_ward::BenchWardArgs),
 }
 
 fn main() -> ExitCode {
@@ -91,6 +94,7 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Features(args)) => bench_cmd::run(args),
         Command::Bench(BenchCommand::Search(a)) => done(bench_search::run(&a)),
         Command::Bench(BenchCommand::Metric(a)) => done(metric_cmds::bench_metric(&a)),
+        Command::Bench(BenchCommand::Ward(a)) => done(bench_ward::run(&a)),
     };
     match result {
         Ok(code) => code,

@@ -1,0 +1,28 @@
+//! Style exploration of a library: the first brick of the style taxonomy of Garces et al. 2016,
+//! "Style-Based Exploration of Illustration Datasets" (§6.5.1), which groups the items of a
+//! dataset into a hierarchy of styles by agglomerative clustering with Ward's criterion.
+//!
+//! * [`ward()`]: exact Ward clustering of points (nearest-neighbour chain, Lance–Williams
+//!   update), the same tree as `scipy.cluster.hierarchy.linkage(X, 'ward')`.
+//! * [`Linkage`]: the merge tree in scipy's numbering, serialisable, and [`Linkage::cut`] into
+//!   `k` flat clusters.
+//!
+//! The points are whatever the caller chooses (standardised features, or rows of the learned
+//! style space `√w ⊙ x`); this module only clusters.
+//!
+//! ```
+//! use learner::explore::ward;
+//!
+//! // Four points on a line: 0, 1 and 10, 11 pair up first.
+//! let tree = ward(&[0.0f64, 1.0, 10.0, 11.0], 1)?;
+//! assert_eq!(tree.merges()[0].a, 0);
+//! assert_eq!(tree.merges()[0].b, 1);
+//! assert_eq!(tree.cut(2)?, vec![0, 0, 1, 1]);
+//! # Ok::<(), learner::Error>(())
+//! ```
+
+mod linkage;
+pub mod ward;
+
+pub use linkage::{Linkage, Merge};
+pub use ward::{MAX_COORDINATE, MAX_POINTS, ward};
