@@ -26,3 +26,9 @@ pub mod ward;
 
 pub use linkage::{Linkage, Merge};
 pub use ward::{MAX_COORDINATE, MAX_POINTS, ward};
+
+/// The tree against scipy's `linkage(X, 'ward')` (reference values of
+/// `scripts/reference/ward_reference.py`); a unit-test module so the crate keeps one
+/// integration-test binary.
+#[cfg(test)]
+mod scipy_reference;

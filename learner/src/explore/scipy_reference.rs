@@ -5,8 +5,8 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use learner::explore::{Linkage, ward};
-use learner::table::read_features;
+use crate::explore::{Linkage, ward};
+use crate::table::read_features;
 use serde_json::Value;
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data");
