@@ -179,22 +179,36 @@ impl Default for StudyOpts {
 /// The admin password the tests use.
 pub const ADMIN_PASSWORD: &str = "correct horse battery staple";
 
+/// Imports the folder `dir` as the library `name` (its items labelled by `labels`, if given)
+/// with `platform library import`; returns what the command printed.
+pub fn import_named(db_url: &str, name: &str, dir: &Path, labels: Option<&Path>) -> String {
+    let dir = dir.to_string_lossy().into_owned();
+    let labels = labels.map(|l| l.to_string_lossy().into_owned());
+    let mut args = vec![
+        "library",
+        "import",
+        "--database-url",
+        db_url,
+        "--name",
+        name,
+    ];
+    if let Some(labels) = &labels {
+        args.extend(["--labels", labels.as_str()]);
+    }
+    args.push(&dir);
+    platform_ok(&args, &[])
+}
+
 /// Imports the library folder `dir` (its items, labelled by `dir/labels.csv`) as `fx`.
 pub fn import_library(db: &TestDb, dir: &Path) {
-    let labels = dir.join("labels.csv").to_string_lossy().into_owned();
+    import_named(&db.url, "fx", dir, Some(&dir.join("labels.csv")));
+}
+
+/// Creates the admin account (password [`ADMIN_PASSWORD`]) with `platform admin create`.
+pub fn create_admin(db_url: &str) {
     platform_ok(
-        &[
-            "library",
-            "import",
-            "--database-url",
-            &db.url,
-            "--name",
-            "fx",
-            "--labels",
-            &labels,
-            &dir.to_string_lossy(),
-        ],
-        &[],
+        &["admin", "create", "--database-url", db_url],
+        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
     );
 }
 
@@ -232,10 +246,7 @@ pub fn setup_study(db: &TestDb, opts: &StudyOpts) -> i64 {
         ],
         &[],
     );
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     out.split_whitespace()
         .nth(1)
         .and_then(|id| id.trim_end_matches(':').parse().ok())

@@ -22,18 +22,7 @@ fn import(db: &TestDb) {
         dir.path().join("coffee.jpg"),
     )
     .expect("copy");
-    let printed = platform_ok(
-        &[
-            "library",
-            "import",
-            "--database-url",
-            &db.url,
-            "--name",
-            "clipart",
-            &dir.path().to_string_lossy(),
-        ],
-        &[],
-    );
+    let printed = import_named(&db.url, "clipart", dir.path(), None);
     assert!(printed.contains('4'), "{printed}");
     let other = tempfile::tempdir().expect("temp dir");
     std::fs::copy(
@@ -41,22 +30,8 @@ fn import(db: &TestDb) {
         other.path().join("bird.svg"),
     )
     .expect("copy");
-    platform_ok(
-        &[
-            "library",
-            "import",
-            "--database-url",
-            &db.url,
-            "--name",
-            "other",
-            &other.path().to_string_lossy(),
-        ],
-        &[],
-    );
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    import_named(&db.url, "other", other.path(), None);
+    create_admin(&db.url);
 }
 
 /// (id, name, library, has an SVG) of every item.

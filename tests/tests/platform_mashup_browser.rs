@@ -27,22 +27,8 @@ pub(crate) fn import(db: &TestDb) {
         let target = dir.path().join(file.replace('/', "-"));
         std::fs::copy(e2e::fixture(&format!("style/{file}")), &target).expect("copy");
     }
-    platform_ok(
-        &[
-            "library",
-            "import",
-            "--database-url",
-            &db.url,
-            "--name",
-            "clipart",
-            &dir.path().to_string_lossy(),
-        ],
-        &[],
-    );
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    import_named(&db.url, "clipart", dir.path(), None);
+    create_admin(&db.url);
 }
 
 /// Runs `script` until it returns true (up to 20 s).

@@ -80,10 +80,7 @@ async fn canvas_events(db: TestDb) {
     import_library(&db, small_library(3).path());
     let study = create_study(&db, "zoo", &[]);
     let fixed = create_study(&db, "farm", &["--background", "grass"]);
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     let server = Server::start(&db.url);
     let base = server.url("");
     let base = base.trim_end_matches('/');

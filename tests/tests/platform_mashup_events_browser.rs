@@ -28,10 +28,7 @@ async fn mashup_edits_in_chromium() {
     let db = sqlite_db();
     import_library(&db, small_library(3).path());
     let study = create_study(&db, "zoo", &[]);
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     let server = Server::start(&db.url);
     let http = client();
     let base = server.url("");

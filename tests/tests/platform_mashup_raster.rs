@@ -41,22 +41,8 @@ fn embedded_pngs(svg: &str) -> Vec<image::RgbaImage> {
 async fn raster_pieces(db: TestDb) {
     let dir = tempfile::tempdir().expect("temp dir");
     std::fs::copy(e2e::fixture(FIXTURE), dir.path().join("cat.png")).expect("copy");
-    platform_ok(
-        &[
-            "library",
-            "import",
-            "--database-url",
-            &db.url,
-            "--name",
-            "clipart",
-            &dir.path().to_string_lossy(),
-        ],
-        &[],
-    );
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    import_named(&db.url, "clipart", dir.path(), None);
+    create_admin(&db.url);
     let server = Server::start(&db.url);
     let c = client();
     let base = server.url("");

@@ -170,10 +170,7 @@ async fn mashup_study(db: TestDb) {
         .nth(1)
         .and_then(|id| id.trim_end_matches(':').parse().ok())
         .expect("study id");
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     let server = Server::start(&db.url);
     let base = server.url("");
     let base = base.trim_end_matches('/');

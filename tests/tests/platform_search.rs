@@ -43,25 +43,9 @@ fn import_library(db: &TestDb) -> HashMap<String, Vec<String>> {
     }
     let labels_file = dir.path().join("labels.csv");
     std::fs::write(&labels_file, out).expect("labels");
-    let printed = platform_ok(
-        &[
-            "library",
-            "import",
-            "--database-url",
-            &db.url,
-            "--name",
-            "clipart",
-            "--labels",
-            &labels_file.to_string_lossy(),
-            &dir.path().to_string_lossy(),
-        ],
-        &[],
-    );
+    let printed = import_named(&db.url, "clipart", dir.path(), Some(&labels_file));
     assert!(printed.contains("32"), "{printed}");
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     keywords
 }
 

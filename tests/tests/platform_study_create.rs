@@ -102,10 +102,7 @@ fn setup_live_study(db: &TestDb) -> i64 {
         ],
         &[],
     );
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     out.split_whitespace()
         .nth(1)
         .and_then(|id| id.trim_end_matches(':').parse().ok())
@@ -337,10 +334,7 @@ async fn page(c: &reqwest::Client, url: &str, cookie: Option<&str>) -> (u16, Str
 async fn start_page_counts_what_a_hit_holds(db: TestDb) {
     import_synthetic(&db, "plain", false);
     import_synthetic(&db, "synth", true);
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     let shape = json!({"questions_per_hit": 12, "controls_per_hit": 3, "tuples": 5,
                        "training_questions": 2, "replication": 1});
     let (plain, stderr) = cli_create(&db, "plain", shape.clone());
@@ -449,10 +443,7 @@ both_databases!(
 async fn oversized_studies_are_refused_with_their_size() {
     let db = sqlite_db();
     import_synthetic(&db, "synth", true);
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     let out = platform_cmd(
         &[
             "study",
@@ -532,10 +523,7 @@ async fn oversized_studies_are_refused_with_their_size() {
 async fn a_creation_killed_midway_leaves_a_failed_study_nobody_can_join() {
     let db = sqlite_db();
     import_synthetic(&db, "synth", true);
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     let mut cli = std::process::Command::new(e2e::binary("platform", "platform"))
         .args([
             "study",

@@ -45,10 +45,7 @@ async fn new_study_forms_in_chromium() {
     let db = sqlite_db();
     let lib = small_library(3);
     import_library(&db, lib.path());
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     let server = Server::start(&db.url);
     c.goto(&server.url("/admin/login"))
         .await

@@ -38,10 +38,7 @@ async fn forms_refuse_bad_input(db: TestDb) {
     import_library(&db, lib.path());
     let mashup = mashup_study(&db, "farm", 4);
     let empty = mashup_study(&db, "empty farm", 2);
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     let server = Server::start(&db.url);
     let base = server.url("");
     let base = base.trim_end_matches('/').to_string();

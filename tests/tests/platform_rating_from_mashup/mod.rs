@@ -27,10 +27,7 @@ async fn rating_from_mashup(db: TestDb) {
         )
         .stdout,
     ));
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     let server = Server::start(&db.url);
     let base = server.url("");
     let base = base.trim_end_matches('/').to_string();

@@ -61,10 +61,7 @@ fn setup_formula_study(db: &TestDb, opts: &StudyOpts) -> i64 {
         ],
         &[],
     );
-    platform_ok(
-        &["admin", "create", "--database-url", &db.url],
-        &[("PLATFORM_ADMIN_PASSWORD", ADMIN_PASSWORD)],
-    );
+    create_admin(&db.url);
     out.split_whitespace()
         .nth(1)
         .and_then(|id| id.trim_end_matches(':').parse().ok())
