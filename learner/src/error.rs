@@ -249,6 +249,32 @@ pub enum Error {
     /// A linkage (a merge tree) read from outside is not a valid one.
     #[error("invalid linkage: {0}")]
     InvalidLinkage(String),
+    // Exploration (explore::library, explore::taxonomy)
+    /// Requested semantic labels that no item of the library has.
+    #[error("no item has the label(s) {missing:?}; the library's {total} labels include {known:?}")]
+    UnknownLabels {
+        /// The requested labels not found.
+        missing: Vec<String>,
+        /// Up to 20 of the library's labels, the most frequent first.
+        known: Vec<String>,
+        /// How many labels the library has.
+        total: usize,
+    },
+    /// The taxonomy's pruning thresholds leave no branch.
+    #[error(
+        "κ = {kappa}, τ = {tau} prune every branch: the whole library has {items} items{per_label}; \
+         lower κ (keep branches with more than κ items) or τ (more than τ items of each label)"
+    )]
+    PrunedEverything {
+        /// κ, the size a kept branch must exceed.
+        kappa: usize,
+        /// τ, the count of each requested label a kept branch must exceed.
+        tau: usize,
+        /// Items in the library.
+        items: usize,
+        /// ", of which N `label`" for each requested label (empty without labels).
+        per_label: String,
+    },
 }
 
 /// `Result` with this crate's [`Error`].

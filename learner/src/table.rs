@@ -101,7 +101,7 @@ impl FeatureTable {
     }
 }
 
-fn csv_error(path: &Path, line: u64, message: impl Into<String>) -> Error {
+pub(crate) fn csv_error(path: &Path, line: u64, message: impl Into<String>) -> Error {
     Error::InvalidCsv {
         path: path.to_path_buf(),
         line,
@@ -109,11 +109,11 @@ fn csv_error(path: &Path, line: u64, message: impl Into<String>) -> Error {
     }
 }
 
-fn record_line(record: &csv::StringRecord) -> u64 {
+pub(crate) fn record_line(record: &csv::StringRecord) -> u64 {
     record.position().map_or(0, |p| p.line())
 }
 
-fn from_csv_error(path: &Path, e: csv::Error) -> Error {
+pub(crate) fn from_csv_error(path: &Path, e: csv::Error) -> Error {
     let line = e.position().map_or(0, |p| p.line());
     match e.into_kind() {
         csv::ErrorKind::Io(source) => Error::Io {

@@ -21,11 +21,15 @@
 //! # Ok::<(), learner::Error>(())
 //! ```
 
+pub mod library;
 mod linkage;
+pub mod taxonomy;
 pub mod ward;
 
+pub use library::{StyleLibrary, read_item_labels};
 pub use linkage::{Linkage, Merge};
-pub use ward::{MAX_COORDINATE, MAX_POINTS, ward};
+pub use taxonomy::{Taxonomy, TaxonomyParams, taxonomy};
+pub use ward::{MAX_COORDINATE, MAX_POINTS, ward, ward_weighted};
 
 /// The tree against scipy's `linkage(X, 'ward')` (reference values of
 /// `scripts/reference/ward_reference.py`); a unit-test module so the crate keeps one

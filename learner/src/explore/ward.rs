@@ -44,8 +44,43 @@ pub const MAX_COORDINATE: f64 = 1e100;
 /// for the distance matrix that cannot be allocated.
 pub fn ward<T: Copy + Into<f64> + Sync>(points: &[T], dim: usize) -> Result<Linkage> {
     let n = validate(points, dim)?;
-    let mut d = condensed_squared_distances(points, n, dim)?;
-    let merges = nn_chain(&mut d, n);
+    let mut d = condensed_squared_distances(points, n, dim, None)?;
+    let merges = nn_chain(&mut d, &vec![1.0; n]);
+    drop(d);
+    Linkage::new(n, label(merges, n))
+}
+
+/// Ward's clustering of `points` that stand for groups of `weights[i]` items each (k-means
+/// centres with their cluster sizes): the tree Ward builds on the items once every group has
+/// been merged, because Ward's merge cost depends only on the clusters' sizes and centroids,
+/// `Δ(A, B) = |A||B|/(|A|+|B|) · ‖c_A − c_B‖²` (Ward 1963). The leaves of the returned
+/// [`Linkage`] are the points (its `size` counts points, not items); the heights are in the
+/// same scale as [`ward`]'s, `√(2Δ)`, so with unit weights the two agree.
+///
+/// Errors: those of [`ward`], a `weights` of another length, or a zero weight.
+pub fn ward_weighted<T: Copy + Into<f64> + Sync>(
+    points: &[T],
+    dim: usize,
+    weights: &[usize],
+) -> Result<Linkage> {
+    let n = validate(points, dim)?;
+    if weights.len() != n {
+        return Err(Error::InvalidParameter {
+            name: "weights",
+            value: format!("{} weights for {n} points", weights.len()),
+            reason: "every point needs the number of items it stands for",
+        });
+    }
+    if weights.contains(&0) {
+        return Err(Error::InvalidParameter {
+            name: "weights",
+            value: "0".into(),
+            reason: "a point must stand for at least one item",
+        });
+    }
+    let w: Vec<f64> = weights.iter().map(|&v| v as f64).collect();
+    let mut d = condensed_squared_distances(points, n, dim, Some(&w))?;
+    let merges = nn_chain(&mut d, &w);
     drop(d);
     Linkage::new(n, label(merges, n))
 }
@@ -108,11 +143,14 @@ fn at(n: usize, i: usize, j: usize) -> usize {
 
 /// The condensed matrix of squared Euclidean distances, one row of pairs per rayon task. Each
 /// distance is a plain sum of squared differences in `f64` (not `‖x‖² + ‖y‖² − 2x·y`, which
-/// loses the small distances that decide the first merges).
+/// loses the small distances that decide the first merges). With `weights`, the squared Ward
+/// distance of groups, `2·w_i·w_j/(w_i + w_j) · ‖x_i − x_j‖²` (which is `‖x_i − x_j‖²` for
+/// unit weights, the scale the Lance–Williams update keeps).
 fn condensed_squared_distances<T: Copy + Into<f64> + Sync>(
     points: &[T],
     n: usize,
     dim: usize,
+    weights: Option<&[f64]>,
 ) -> Result<Vec<f64>> {
     let len = n * (n - 1) / 2;
     let mut d: Vec<f64> = Vec::new();
@@ -134,7 +172,11 @@ fn condensed_squared_distances<T: Copy + Into<f64> + Sync>(
         for (k, out) in row.iter_mut().enumerate() {
             let j = i + 1 + k;
             let xj = &x[j * dim..(j + 1) * dim];
-            *out = xi.iter().zip(xj).map(|(a, b)| (a - b) * (a - b)).sum();
+            let squared: f64 = xi.iter().zip(xj).map(|(a, b)| (a - b) * (a - b)).sum();
+            *out = match weights {
+                Some(w) => 2.0 * w[i] * w[j] / (w[i] + w[j]) * squared,
+                None => squared,
+            };
         }
     });
     Ok(d)
@@ -148,16 +190,17 @@ type SlotMerge = (usize, usize, f64);
 /// any cluster until its last two elements are each other's nearest, merge them, and continue
 /// from what is left of the chain. With a reducible criterion such as Ward's, every merge made
 /// this way is one the greedy algorithm also makes, so the tree is exact.
-fn nn_chain(d: &mut [f64], n: usize) -> Vec<SlotMerge> {
-    // Points in the cluster held by each slot; 0 once the slot is merged away.
-    let mut size = vec![1usize; n];
+fn nn_chain(d: &mut [f64], weights: &[f64]) -> Vec<SlotMerge> {
+    let n = weights.len();
+    // Items in the cluster held by each slot; 0 once the slot is merged away.
+    let mut size = weights.to_vec();
     let mut chain: Vec<usize> = Vec::with_capacity(n);
     let mut merges = Vec::with_capacity(n - 1);
     for _ in 0..n - 1 {
         if chain.is_empty() {
             let first = size
                 .iter()
-                .position(|s| *s > 0)
+                .position(|s| *s > 0.0)
                 .expect("two clusters remain");
             chain.push(first);
         }
@@ -170,7 +213,7 @@ fn nn_chain(d: &mut [f64], n: usize) -> Vec<SlotMerge> {
                 None => (usize::MAX, f64::INFINITY),
             };
             for (i, s) in size.iter().enumerate() {
-                if *s == 0 || i == x {
+                if *s == 0.0 || i == x {
                     continue;
                 }
                 let v = d[at(n, x, i)];
@@ -186,14 +229,13 @@ fn nn_chain(d: &mut [f64], n: usize) -> Vec<SlotMerge> {
         };
         chain.truncate(chain.len() - 2);
         let (x, y) = (x.min(y), x.max(y));
-        let (nx, ny) = (size[x] as f64, size[y] as f64);
+        let (nx, ny) = (size[x], size[y]);
         size[y] += size[x];
-        size[x] = 0;
+        size[x] = 0.0;
         for (i, &ni) in size.iter().enumerate() {
-            if ni == 0 || i == y {
+            if ni == 0.0 || i == y {
                 continue;
             }
-            let ni = ni as f64;
             let (xi, yi) = (at(n, x, i), at(n, y, i));
             d[yi] = ((ni + nx) * d[xi] + (ni + ny) * d[yi] - ni * dxy) / (nx + ny + ni);
         }

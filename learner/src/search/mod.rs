@@ -39,7 +39,7 @@ pub mod cache;
 pub mod diversity;
 pub mod index;
 pub mod keywords;
-mod kmeans;
+pub(crate) mod kmeans;
 pub mod params;
 mod query;
 #[cfg(test)]

@@ -175,3 +175,68 @@ fn ward_condensed_index_is_the_upper_triangle_row_by_row() {
         }
     }
 }
+
+#[test]
+fn ward_weighted_equals_ward_on_the_items_after_their_groups_merge() {
+    // Each of 12 seeded centres repeated `w` times: exact Ward on the 12·w̄ items merges every
+    // group of duplicates at height 0 first, then must make the weighted tree's merges.
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let dim = 3;
+    let centres: Vec<f64> = (0..12 * dim).map(|_| rng.random_range(-5.0..5.0)).collect();
+    let weights: Vec<usize> = (0..12).map(|_| rng.random_range(1..5)).collect();
+    let mut items = Vec::new();
+    for (c, &w) in weights.iter().enumerate() {
+        for _ in 0..w {
+            items.extend_from_slice(&centres[c * dim..(c + 1) * dim]);
+        }
+    }
+    let full = ward(&items, dim).unwrap();
+    let weighted = ward_weighted(&centres, dim, &weights).unwrap();
+    let items_n = items.len() / dim;
+    let zero_merges = items_n - 12;
+    let upper: Vec<f64> = full.merges()[zero_merges..]
+        .iter()
+        .map(|m| m.height)
+        .collect();
+    assert!(full.merges()[..zero_merges].iter().all(|m| m.height == 0.0));
+    let heights: Vec<f64> = weighted.merges().iter().map(|m| m.height).collect();
+    assert_eq!(upper.len(), heights.len());
+    for (a, b) in upper.iter().zip(&heights) {
+        assert!((a - b).abs() <= 1e-9 * a.max(1.0), "{a} vs {b}");
+    }
+    // The same partitions: group label of every item in the full tree's cut.
+    let mut group = Vec::new();
+    for (c, &w) in weights.iter().enumerate() {
+        group.extend(std::iter::repeat_n(c, w));
+    }
+    for k in [2, 3, 5, 12] {
+        let by_item = full.cut(k).unwrap();
+        let by_centre = weighted.cut(k).unwrap();
+        let mut relabel = std::collections::HashMap::new();
+        for (item, &g) in group.iter().enumerate() {
+            let seen = relabel.entry(by_centre[g]).or_insert(by_item[item]);
+            assert_eq!(*seen, by_item[item], "k = {k}");
+        }
+    }
+    // Unit weights are plain Ward.
+    assert_eq!(
+        ward_weighted(&centres, dim, &[1; 12]).unwrap(),
+        ward(&centres, dim).unwrap()
+    );
+    assert!(matches!(
+        ward_weighted(&centres, dim, &[1; 11]),
+        Err(Error::InvalidParameter {
+            name: "weights",
+            ..
+        })
+    ));
+    let mut zero = vec![1; 12];
+    zero[3] = 0;
+    assert!(matches!(
+        ward_weighted(&centres, dim, &zero),
+        Err(Error::InvalidParameter {
+            name: "weights",
+            ..
+        })
+    ));
+}
