@@ -190,7 +190,8 @@ impl StyleLibrary {
 
 /// Reads the semantic label of each item: a CSV with an id column (`id` or `file`) and a label
 /// column (`column`, or else `label`, `category`, `concept` or `group`, the first present).
-/// Errors: no such columns, an empty id or label, a duplicate id, no rows.
+/// Items with an empty label are left out (they count as [`UNLABELLED`]). Errors: no such
+/// columns, an empty id, a duplicate id, no labelled row.
 pub fn read_item_labels(path: &Path, column: Option<&str>) -> Result<HashMap<String, String>> {
     read_item_labels_from(open(path)?, path, column)
 }
@@ -230,8 +231,8 @@ pub fn read_item_labels_from<R: Read>(
         let line = record_line(&record);
         let id = record.get(id_col).unwrap_or("").trim().to_owned();
         let label = record.get(label_col).unwrap_or("").trim().to_owned();
-        if id.is_empty() || label.is_empty() {
-            return Err(csv_error(path, line, "empty id or label"));
+        if id.is_empty() {
+            return Err(csv_error(path, line, "empty id"));
         }
         if let Some(first) = first_line.insert(id.clone(), line) {
             return Err(csv_error(
@@ -240,7 +241,10 @@ pub fn read_item_labels_from<R: Read>(
                 format!("duplicate id `{id}` (first on line {first})"),
             ));
         }
-        out.insert(id, label);
+        // An item with an empty label is left out: it counts as unlabelled.
+        if !label.is_empty() {
+            out.insert(id, label);
+        }
     }
     if out.is_empty() {
         return Err(Error::EmptyFile {
@@ -294,10 +298,12 @@ mod tests {
         let pick =
             read_item_labels_from("id,label,group\nx,a,b\n".as_bytes(), p, Some("group")).unwrap();
         assert_eq!(pick["x"], "b");
+        let partly = read_item_labels_from("id,label\nx,\ny,a\n".as_bytes(), p, None).unwrap();
+        assert_eq!(partly.len(), 1);
         for (text, needle) in [
             ("name,label\nx,a\n", "no `id`"),
             ("id,colour\nx,a\n", "no `label`"),
-            ("id,label\nx,\n", "empty id or label"),
+            ("id,label\n,a\n", "empty id"),
             ("id,label\nx,a\nx,b\n", "duplicate id `x`"),
         ] {
             let err = read_item_labels_from(text.as_bytes(), p, None)
