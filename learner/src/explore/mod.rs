@@ -23,6 +23,7 @@
 
 pub mod library;
 mod linkage;
+pub mod map;
 pub mod taxonomy;
 pub mod ward;
 
