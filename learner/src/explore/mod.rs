@@ -7,6 +7,9 @@
 //! * [`Linkage`]: the merge tree in scipy's numbering, serialisable, and [`Linkage::cut`] into
 //!   `k` flat clusters.
 //!
+//! * [`tsne()`]: the t-SNE map of the points in the plane (Barnes–Hut for large inputs) and
+//!   [`tsne::quality`] to measure one (§5.7.1, ch. 6 of the same paper).
+//!
 //! The points are whatever the caller chooses (standardised features, or rows of the learned
 //! style space `√w ⊙ x`); this module only clusters.
 //!
@@ -22,9 +25,11 @@
 //! ```
 
 mod linkage;
+pub mod tsne;
 pub mod ward;
 
 pub use linkage::{Linkage, Merge};
+pub use tsne::{Affinities, TsneInfo, TsneInit, TsneMethod, TsneParams, tsne};
 pub use ward::{MAX_COORDINATE, MAX_POINTS, ward};
 
 /// The tree against scipy's `linkage(X, 'ward')` (reference values of
