@@ -274,6 +274,44 @@ pub enum Error {
         items: usize,
         /// ", of which N `label`" for each requested label (empty without labels).
         per_label: String,
+    // t-SNE (explore::tsne)
+    /// t-SNE is given too few points for its perplexity.
+    #[error(
+        "t-SNE with perplexity {perplexity} needs at least {needed} points (⌊3·perplexity⌋ neighbours each), got {n}; lower the perplexity"
+    )]
+    TsneTooFewPoints {
+        /// How many points were given.
+        n: usize,
+        /// The perplexity asked for.
+        perplexity: f64,
+        /// The fewest points it needs.
+        needed: usize,
+    },
+    /// t-SNE is given more points than it supports.
+    #[error("t-SNE of {n} points: at most {limit} points are supported")]
+    TsneTooManyPoints {
+        /// How many points were given.
+        n: usize,
+        /// The limit.
+        limit: usize,
+    },
+    /// The gradient descent left finite numbers.
+    #[error("t-SNE diverged (point {point} is not finite) with learning rate {learning_rate}")]
+    TsneDiverged {
+        /// The first point that is not finite.
+        point: usize,
+        /// The learning rate used.
+        learning_rate: f64,
+    },
+    /// An embedding or an affinity matrix does not match the points it should describe.
+    #[error("{what}: expected {expected} points, got {got}")]
+    TsneShapeMismatch {
+        /// What was compared.
+        what: &'static str,
+        /// The number of points expected.
+        expected: usize,
+        /// The number given.
+        got: usize,
     },
 }
 

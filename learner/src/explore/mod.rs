@@ -7,6 +7,9 @@
 //! * [`Linkage`]: the merge tree in scipy's numbering, serialisable, and [`Linkage::cut`] into
 //!   `k` flat clusters.
 //!
+//! * [`tsne()`]: the t-SNE map of the points in the plane (Barnes–Hut for large inputs) and
+//!   [`tsne::quality`] to measure one (§5.7.1, ch. 6 of the same paper).
+//!
 //! The points are whatever the caller chooses (standardised features, or rows of the learned
 //! style space `√w ⊙ x`); this module only clusters.
 //!
@@ -25,11 +28,13 @@ pub mod library;
 mod linkage;
 pub mod map;
 pub mod taxonomy;
+pub mod tsne;
 pub mod ward;
 
 pub use library::{StyleLibrary, read_item_labels};
 pub use linkage::{Linkage, Merge};
 pub use taxonomy::{Taxonomy, TaxonomyParams, taxonomy};
+pub use tsne::{Affinities, TsneInfo, TsneInit, TsneMethod, TsneParams, tsne};
 pub use ward::{MAX_COORDINATE, MAX_POINTS, ward, ward_weighted};
 
 /// The tree against scipy's `linkage(X, 'ward')` (reference values of
