@@ -274,6 +274,7 @@ pub enum Error {
         items: usize,
         /// ", of which N `label`" for each requested label (empty without labels).
         per_label: String,
+    },
     // t-SNE (explore::tsne)
     /// t-SNE is given too few points for its perplexity.
     #[error(
