@@ -56,6 +56,8 @@ enum Command {
     Search(Box<search_cmd::SearchArgs>),
     /// The representative styles of a library: Ward's taxonomy pruned by κ and τ (§6.5.1).
     Taxonomy(Box<explore_cmd::taxonomy::TaxonomyArgs>),
+    /// The style map: t-SNE of the learned style space, with a contact sheet and a static page.
+    Map(Box<explore_cmd::map::MapArgs>),
     /// Benchmarks that print tables.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -80,7 +82,7 @@ fn main() -> ExitCode {
     // that query a library, and so do the exploration commands; the older commands keep 2,
     // which existing scripts test for.
     let failure = match command {
-        Command::Index(_) | Command::Search(_) | Command::Taxonomy(_) => 1,
+        Command::Index(_) | Command::Search(_) | Command::Taxonomy(_) | Command::Map(_) => 1,
         _ => 2,
     };
     let result = match command {
@@ -96,6 +98,7 @@ fn main() -> ExitCode {
         Command::Index(a) => done(search_cmd::run_index(&a)),
         Command::Search(a) => done(search_cmd::run_search(&a)),
         Command::Taxonomy(a) => done(explore_cmd::taxonomy::run(&a)),
+        Command::Map(a) => done(explore_cmd::map::run(&a)),
         Command::Bench(BenchCommand::Features(args)) => bench_cmd::run(args),
         Command::Bench(BenchCommand::Search(a)) => done(bench_search::run(&a)),
         Command::Bench(BenchCommand::Metric(a)) => done(metric_cmds::bench_metric(&a)),

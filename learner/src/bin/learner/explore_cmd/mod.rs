@@ -5,8 +5,11 @@
 //! * `library`: the shared arguments and loading the library.
 //! * `sheet`: thumbnails and contact sheets.
 //! * `taxonomy`: the representative styles.
+//! * `map`: the style map, and `html` its static page.
 
+pub mod html;
 pub mod library;
+pub mod map;
 pub mod sheet;
 pub mod taxonomy;
 

@@ -18,7 +18,8 @@ const MISSING: Rgb<u8> = Rgb([200, 120, 120]);
 
 /// Thumbnails of items by id.
 pub struct Thumbnails {
-    size: u32,
+    /// Side in pixels.
+    pub size: u32,
     images: HashMap<String, RgbImage>,
     /// Ids that were asked for but not found or not renderable.
     pub missing: usize,
@@ -60,7 +61,8 @@ impl Thumbnails {
         })
     }
 
-    fn get(&self, id: &str) -> Option<&RgbImage> {
+    /// The thumbnail of `id`, when it was found and rendered.
+    pub fn get(&self, id: &str) -> Option<&RgbImage> {
         self.images.get(id)
     }
 }
@@ -105,23 +107,44 @@ pub fn grid(thumbs: &Thumbnails, rows: &[Vec<Option<Cell>>], cols: usize) -> Rgb
     sheet
 }
 
-/// Thumbnails centred on `(x, y)` positions scaled into a square of `side` pixels.
-#[allow(dead_code)] // used by `learner map` (next commit)
-pub fn scatter(thumbs: &Thumbnails, points: &[(&str, f32, f32)], side: u32) -> RgbImage {
-    let mut sheet = RgbImage::from_pixel(side, side, BACKGROUND);
+/// The points a scatter sheet of `side` pixels shows with `size`-pixel thumbnails: the map cut
+/// into cells of one thumbnail, and in each occupied cell the point nearest its centre (so
+/// thumbnails never overlap), as `(point index, column, row)`.
+pub fn lattice(points: &[(f32, f32)], side: u32, size: u32) -> Vec<(usize, u32, u32)> {
+    let cells = (side / size.max(1)).max(1);
     let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-    for &(_, x, y) in points {
-        for (k, v) in [x, y].into_iter().enumerate() {
-            lo[k] = lo[k].min(v);
-            hi[k] = hi[k].max(v);
-        }
+    for &(x, y) in points {
+        lo = [lo[0].min(x), lo[1].min(y)];
+        hi = [hi[0].max(x), hi[1].max(y)];
     }
     let span = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(f32::MIN_POSITIVE);
-    let usable = side.saturating_sub(thumbs.size) as f32;
-    for &(id, x, y) in points {
-        let px = ((x - lo[0]) / span * usable) as u32;
-        let py = ((y - lo[1]) / span * usable) as u32;
-        put(&mut sheet, thumbs, id, px, py);
+    let mut best: HashMap<(u32, u32), (f32, usize)> = HashMap::new();
+    for (i, &(x, y)) in points.iter().enumerate() {
+        let u = (x - lo[0]) / span * cells as f32;
+        let v = (y - lo[1]) / span * cells as f32;
+        let (c, r) = ((u as u32).min(cells - 1), (v as u32).min(cells - 1));
+        let d = (u - c as f32 - 0.5).powi(2) + (v - r as f32 - 0.5).powi(2);
+        let slot = best.entry((c, r)).or_insert((d, i));
+        if d < slot.0 || (d == slot.0 && i < slot.1) {
+            *slot = (d, i);
+        }
+    }
+    let mut out: Vec<(usize, u32, u32)> =
+        best.into_iter().map(|((c, r), (_, i))| (i, c, r)).collect();
+    out.sort_unstable();
+    out
+}
+
+/// The lattice's thumbnails on a square sheet of `side` pixels.
+pub fn scatter(
+    thumbs: &Thumbnails,
+    ids: &[&str],
+    cells: &[(usize, u32, u32)],
+    side: u32,
+) -> RgbImage {
+    let mut sheet = RgbImage::from_pixel(side, side, BACKGROUND);
+    for &(i, c, r) in cells {
+        put(&mut sheet, thumbs, ids[i], c * thumbs.size, r * thumbs.size);
     }
     sheet
 }

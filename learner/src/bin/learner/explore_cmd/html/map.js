@@ -42,7 +42,7 @@
     ctx.setTransform(1, 0, 0, 1, 0, 0);
     ctx.clearRect(0, 0, canvas.width, canvas.height);
     // Size a thumbnail may take: the map's scale over the square root of the point count.
-    const cell = view.scale / Math.sqrt(n) * 1.6;
+    const cell = view.scale / Math.sqrt(n) * 0.8;
     const shown = Math.max(2, Math.min(cell, thumb * devicePixelRatio * 1.5));
     const thumbs = cell >= 12 * devicePixelRatio;
     let visible = 0;
