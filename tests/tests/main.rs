@@ -6,6 +6,7 @@
 //! Select an area with a filter: `cargo nextest run --workspace -E 'test(/^platform_flow::/)'`.
 
 mod learner_cli;
+mod learner_explore;
 mod learner_search;
 mod platform_browser;
 mod platform_cli;
