@@ -21,9 +21,14 @@
 //! # Ok::<(), learner::Error>(())
 //! ```
 
+pub mod grid;
 mod linkage;
 pub mod ward;
 
+pub use grid::{
+    BalanceParams, Cost, Grid, IsoMatchParams, Node, NodeState, QualityParams, SomParams, balance,
+    balanced_grid, cost, dpq, isomatch, layout_spearman, random_layout, som,
+};
 pub use linkage::{Linkage, Merge};
 pub use ward::{MAX_COORDINATE, MAX_POINTS, ward};
 
