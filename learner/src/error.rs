@@ -314,6 +314,37 @@ pub enum Error {
         /// The number given.
         got: usize,
     },
+    // Balanced grid (explore::grid)
+    /// A grid with a zero side or more nodes than supported.
+    #[error("a {rows}x{cols} grid is not supported: {reason}")]
+    BadGridShape {
+        /// Rows `M`.
+        rows: usize,
+        /// Columns `N`.
+        cols: usize,
+        /// What is allowed.
+        reason: &'static str,
+    },
+    /// The labels (or ids) do not give one entry per item.
+    #[error("{what}: {got} entries for {expected} items")]
+    LengthMismatch {
+        /// Which input.
+        what: &'static str,
+        /// The number of items.
+        expected: usize,
+        /// The number of entries given.
+        got: usize,
+    },
+    /// A linear assignment problem with more rows than columns, or a cost that is not finite.
+    #[error("invalid assignment problem ({rows}x{cols}): {reason}")]
+    BadAssignment {
+        /// Rows (items).
+        rows: usize,
+        /// Columns (cells).
+        cols: usize,
+        /// What is wrong.
+        reason: String,
+    },
 }
 
 /// `Result` with this crate's [`Error`].

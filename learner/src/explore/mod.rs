@@ -24,6 +24,7 @@
 //! # Ok::<(), learner::Error>(())
 //! ```
 
+pub mod grid;
 pub mod library;
 mod linkage;
 pub mod map;
@@ -31,6 +32,10 @@ pub mod taxonomy;
 pub mod tsne;
 pub mod ward;
 
+pub use grid::{
+    BalanceParams, Cost, Grid, IsoMatchParams, Node, NodeState, QualityParams, SomParams, balance,
+    balanced_grid, cost, dpq, isomatch, layout_spearman, random_layout, som,
+};
 pub use library::{StyleLibrary, read_item_labels};
 pub use linkage::{Linkage, Merge};
 pub use taxonomy::{Taxonomy, TaxonomyParams, taxonomy};

@@ -10,6 +10,7 @@ macro_rules! outln {
 }
 
 mod bench_cmd;
+mod bench_grid;
 mod bench_search;
 mod bench_ward;
 mod explore_cmd;
@@ -73,6 +74,8 @@ enum BenchCommand {
     Search(bench_search::BenchSearchArgs),
     /// Ward clustering of random points, side by side with scipy.
     Ward(bench_ward::BenchWardArgs),
+    /// The balanced grid (SOM + Algorithms 3-4) and its baselines; the LAP beside scipy.
+    Grid(bench_grid::BenchGridArgs),
 }
 
 fn main() -> ExitCode {
@@ -103,6 +106,7 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Search(a)) => done(bench_search::run(&a)),
         Command::Bench(BenchCommand::Metric(a)) => done(metric_cmds::bench_metric(&a)),
         Command::Bench(BenchCommand::Ward(a)) => done(bench_ward::run(&a)),
+        Command::Bench(BenchCommand::Grid(a)) => done(bench_grid::run(&a)),
     };
     match result {
         Ok(code) => code,
