@@ -350,3 +350,124 @@ async fn status(c: &Client) -> String {
         .await
         .expect("text")
 }
+
+#[test]
+fn grid_lays_out_a_taxonomy_branch_without_losing_an_item() {
+    let dir = tempfile::tempdir().unwrap();
+    let taxonomy = dir.path().join("taxonomy.json");
+    let filter = [
+        "--label-column",
+        "group",
+        "--labels",
+        "animals-nature,travel-places",
+    ];
+    let mut args = filter.to_vec();
+    args.extend(["--kappa", "12", "--out", taxonomy.to_str().unwrap()]);
+    let run = explore("taxonomy", &args);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let t = read_json(&taxonomy);
+    let branch = &t["representatives"][0];
+    let members: Vec<&str> = branch["members"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m.as_str().unwrap())
+        .collect();
+    let side = (members.len() as f64).sqrt().floor() as usize;
+    let out = dir.path().join("grid.json");
+    for layout in ["balanced", "som", "isomatch", "random"] {
+        let mut args = filter.to_vec();
+        let (rows, cols) = (side.to_string(), side.to_string());
+        args.extend([
+            "--taxonomy",
+            taxonomy.to_str().unwrap(),
+            "--branch",
+            branch["id"].as_str().unwrap(),
+            "--rows",
+            &rows,
+            "--cols",
+            &cols,
+            "--layout",
+            layout,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let run = explore("grid", &args);
+        assert!(run.status.success(), "{layout}: {}", stderr(&run));
+        let g = read_json(&out);
+        assert_eq!(
+            (g["rows"].as_u64(), g["cols"].as_u64()),
+            (Some(side as u64), Some(side as u64))
+        );
+        let nodes = g["nodes"].as_array().unwrap();
+        assert_eq!(nodes.len(), side * side);
+        // Shown + hidden = the branch, each item once.
+        let mut placed: Vec<&str> = Vec::new();
+        for node in nodes {
+            if let Some(id) = node["id"].as_str() {
+                placed.push(id);
+                // Single: one item shown (with any others hidden behind it); multi: the
+                // raw SOM's node that has not chosen.
+                let state = node["state"].as_str().unwrap();
+                assert!(state == "single" || state == "multi", "{node}");
+                if layout == "balanced" {
+                    assert_eq!(state, "single", "{node}");
+                }
+            } else {
+                assert_eq!(node["state"], "empty");
+                assert!(node["label"].is_null());
+            }
+            placed.extend(
+                node["hidden"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|h| h.as_str().unwrap()),
+            );
+        }
+        placed.sort_unstable();
+        let mut expected = members.clone();
+        expected.sort_unstable();
+        assert_eq!(placed, expected, "{layout}");
+        if layout == "balanced" {
+            // At least as many items as nodes: every node shows one (Algorithms 3–4).
+            assert_eq!(g["cost"]["empty"], 0, "{g}");
+            assert!(nodes.iter().all(|n| !n["id"].is_null()));
+        }
+        assert!(g["quality"]["dpq16"].as_f64().is_some(), "{g}");
+        assert!(image::open(dir.path().join("grid.png")).is_ok());
+    }
+    // A grid larger than the branch, and a branch that is not in the taxonomy.
+    let mut args = filter.to_vec();
+    args.extend([
+        "--taxonomy",
+        taxonomy.to_str().unwrap(),
+        "--branch",
+        branch["id"].as_str().unwrap(),
+        "--rows",
+        "40",
+        "--cols",
+        "40",
+    ]);
+    let run = explore("grid", &args);
+    assert_eq!(run.status.code(), Some(1));
+    assert!(stderr(&run).contains("1600 cells"), "{}", stderr(&run));
+    let mut args = filter.to_vec();
+    args.extend([
+        "--taxonomy",
+        taxonomy.to_str().unwrap(),
+        "--branch",
+        "no/such.svg",
+        "--rows",
+        "2",
+        "--cols",
+        "2",
+    ]);
+    let run = explore("grid", &args);
+    assert_eq!(run.status.code(), Some(1));
+    assert!(
+        stderr(&run).contains("no representative style `no/such.svg`"),
+        "{}",
+        stderr(&run)
+    );
+}

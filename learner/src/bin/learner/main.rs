@@ -59,6 +59,8 @@ enum Command {
     Taxonomy(Box<explore_cmd::taxonomy::TaxonomyArgs>),
     /// The style map: t-SNE of the learned style space, with a contact sheet and a static page.
     Map(Box<explore_cmd::map::MapArgs>),
+    /// A style branch on an M×N balanced grid (SOM + Algorithms 3–4), or a baseline layout.
+    Grid(Box<explore_cmd::grid::GridArgs>),
     /// Benchmarks that print tables.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -85,7 +87,11 @@ fn main() -> ExitCode {
     // that query a library, and so do the exploration commands; the older commands keep 2,
     // which existing scripts test for.
     let failure = match command {
-        Command::Index(_) | Command::Search(_) | Command::Taxonomy(_) | Command::Map(_) => 1,
+        Command::Index(_)
+        | Command::Search(_)
+        | Command::Taxonomy(_)
+        | Command::Map(_)
+        | Command::Grid(_) => 1,
         _ => 2,
     };
     let result = match command {
@@ -102,6 +108,7 @@ fn main() -> ExitCode {
         Command::Search(a) => done(search_cmd::run_search(&a)),
         Command::Taxonomy(a) => done(explore_cmd::taxonomy::run(&a)),
         Command::Map(a) => done(explore_cmd::map::run(&a)),
+        Command::Grid(a) => done(explore_cmd::grid::run(&a)),
         Command::Bench(BenchCommand::Features(args)) => bench_cmd::run(args),
         Command::Bench(BenchCommand::Search(a)) => done(bench_search::run(&a)),
         Command::Bench(BenchCommand::Metric(a)) => done(metric_cmds::bench_metric(&a)),

@@ -6,7 +6,9 @@
 //! * `sheet`: thumbnails and contact sheets.
 //! * `taxonomy`: the representative styles.
 //! * `map`: the style map, and `html` its static page.
+//! * `grid`: the balanced grid of a branch, and its baselines.
 
+pub mod grid;
 pub mod html;
 pub mod library;
 pub mod map;

@@ -76,7 +76,9 @@ pub fn run(args: &TaxonomyArgs) -> Result<()> {
         None => outln!("{}", serde_json::to_string_pretty(&value)?)?,
         Some(path) => {
             super::write_json(path, &value)?;
-            summary(&library, &result);
+            if !args.library.quiet {
+                summary(&library, &result);
+            }
             if args.library.items.is_empty() {
                 eprintln!("no --items given: no contact sheet");
             } else {
