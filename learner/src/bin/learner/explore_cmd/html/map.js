@@ -154,6 +154,19 @@
     }
     draw();
   });
+  // The legend: the dot colour of each label (the palette repeats after ten labels).
+  const legend = document.getElementById('legend');
+  const counts = new Array(data.labels.length).fill(0);
+  for (let i = 0; i < n; i++) counts[data.label[i]]++;
+  data.labels.forEach(function (name, l) {
+    if (counts[l] === 0) return;
+    const li = document.createElement('li');
+    const swatch = document.createElement('span');
+    swatch.className = 'swatch';
+    swatch.style.background = palette[l % palette.length];
+    li.append(swatch, document.createTextNode(name + ' (' + counts[l] + ')'));
+    legend.append(li);
+  });
   document.getElementById('reset').addEventListener('click', reset);
   window.addEventListener('resize', function () { size(); reset(); });
   size();
