@@ -11,6 +11,7 @@ macro_rules! outln {
 
 mod bench_cmd;
 mod bench_search;
+mod bench_tsne;
 mod bench_ward;
 mod features_cmd;
 mod metric_cmds;
@@ -68,6 +69,8 @@ enum BenchCommand {
     Search(bench_search::BenchSearchArgs),
     /// Ward clustering of random points, side by side with scipy.
     Ward(bench_ward::BenchWardArgs),
+    /// t-SNE of seeded or real style rows, side by side with openTSNE.
+    Tsne(bench_tsne::BenchTsneArgs),
 }
 
 fn main() -> ExitCode {
@@ -95,6 +98,7 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Search(a)) => done(bench_search::run(&a)),
         Command::Bench(BenchCommand::Metric(a)) => done(metric_cmds::bench_metric(&a)),
         Command::Bench(BenchCommand::Ward(a)) => done(bench_ward::run(&a)),
+        Command::Bench(BenchCommand::Tsne(a)) => done(bench_tsne::run(&a)),
     };
     match result {
         Ok(code) => code,
