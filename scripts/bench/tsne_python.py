@@ -3,7 +3,7 @@
 scripts/reference/tsne_reference.py for the install line) on the points `learner bench tsne`
 wrote (raw little-endian f32, row-major), with the same perplexity, iterations, exaggeration and
 seed. Writes the embedding (little-endian f32, n x 2) to OUT and prints one JSON line:
-{"seconds": wall time of fit, "kl_divergence": openTSNE's own, "method": the negative-gradient
+{"seconds": wall time of fit, "cpu_seconds": user + system time of fit (all threads), "kl_divergence": openTSNE's own, "method": the negative-gradient
 method, "maxrss_kb": peak resident size of this process (resource.getrusage, KB),
 "opentsne": version}.
 
@@ -29,6 +29,8 @@ def main():
     x = np.fromfile(path, dtype="<f4").reshape(-1, dim).astype(np.float64)
     n = x.shape[0]
     resolved = method if method != "auto" else ("bh" if n < 10_000 else "fft")
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    cpu = usage.ru_utime + usage.ru_stime
     start = time.perf_counter()
     y = openTSNE.TSNE(
         perplexity=perplexity,
@@ -40,11 +42,14 @@ def main():
         negative_gradient_method=resolved,
     ).fit(x)
     seconds = time.perf_counter() - start
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    cpu = usage.ru_utime + usage.ru_stime - cpu
     np.asarray(y, dtype="<f4").tofile(out)
     print(
         json.dumps(
             {
                 "seconds": seconds,
+                "cpu_seconds": cpu,
                 "kl_divergence": float(y.kl_divergence),
                 "method": resolved,
                 "maxrss_kb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,

@@ -73,6 +73,23 @@ fn proc_kb(key: &str) -> f64 {
         .unwrap_or(f64::NAN)
 }
 
+/// User + system CPU seconds of this process so far (all threads; `/proc/self/stat` fields 14
+/// and 15, in clock ticks of 1/100 s as on every Linux x86-64 kernel).
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let fields: Vec<&str> = stat
+        .rsplit_once(')')
+        .map(|(_, rest)| rest.split_whitespace().collect())
+        .unwrap_or_default();
+    let ticks = |i: usize| {
+        fields
+            .get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(f64::NAN)
+    };
+    (ticks(11) + ticks(12)) / 100.0
+}
+
 fn normal(rng: &mut ChaCha8Rng) -> f32 {
     let u: f32 = 1.0 - rng.random::<f32>();
     let v: f32 = rng.random();
@@ -149,6 +166,7 @@ fn points(a: &BenchTsneArgs) -> Result<(Vec<f32>, usize, String)> {
 struct Side {
     name: String,
     seconds: f64,
+    cpu_seconds: f64,
     kl_own: f64,
     peak_mb: f64,
     y: Vec<[f32; 2]>,
@@ -172,10 +190,12 @@ pub fn run(a: &BenchTsneArgs) -> Result<()> {
     };
     eprintln!("{what}; ours on {} threads…", a.threads);
     let t = Instant::now();
+    let cpu = cpu_seconds();
     let (y, info) = pool.install(|| tsne(&x, dim, &params, &mut |_, _| {}))?;
     let ours = Side {
         name: format!("learner t-SNE ({:?})", info.method),
         seconds: t.elapsed().as_secs_f64(),
+        cpu_seconds: cpu_seconds() - cpu,
         kl_own: info.kl_divergence,
         peak_mb: proc_kb("VmHWM:") / 1024.0,
         y,
@@ -213,9 +233,9 @@ pub fn run(a: &BenchTsneArgs) -> Result<()> {
         a.perplexity, a.n_iter, a.threads
     );
     println!(
-        "| | time (s) | KL (own) | KL (our P, exact Z) | T(10) | kNN kept (10) | peak RSS (MB) |"
+        "| | time (s) | CPU (s) | KL (own) | KL (our P, exact Z) | T(10) | kNN kept (10) | peak RSS (MB) |"
     );
-    println!("| --- | ---: | ---: | ---: | ---: | ---: | ---: |");
+    println!("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |");
     for side in &sides {
         let ys: Vec<[f32; 2]> = chosen.iter().map(|&i| side.y[i]).collect();
         let (t10, kept) = pool.install(|| -> Result<(f64, f64)> {
@@ -229,8 +249,8 @@ pub fn run(a: &BenchTsneArgs) -> Result<()> {
             None => "—".into(),
         };
         println!(
-            "| {} | {:.1} | {:.4} | {kl} | {t10:.4} | {kept:.4} | {:.0} |",
-            side.name, side.seconds, side.kl_own, side.peak_mb
+            "| {} | {:.1} | {:.1} | {:.4} | {kl} | {t10:.4} | {kept:.4} | {:.0} |",
+            side.name, side.seconds, side.cpu_seconds, side.kl_own, side.peak_mb
         );
     }
     if sides.len() == 2 {
@@ -292,6 +312,7 @@ fn python(a: &BenchTsneArgs, x: &[f32], dim: usize, params: &TsneParams) -> Resu
         seconds: theirs["seconds"]
             .as_f64()
             .context("no seconds from python")?,
+        cpu_seconds: theirs["cpu_seconds"].as_f64().unwrap_or(f64::NAN),
         kl_own: theirs["kl_divergence"].as_f64().unwrap_or(f64::NAN),
         peak_mb: theirs["maxrss_kb"].as_f64().unwrap_or(f64::NAN) / 1024.0,
         y,
