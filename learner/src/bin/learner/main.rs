@@ -12,6 +12,7 @@ macro_rules! outln {
 mod bench_cmd;
 mod bench_grid;
 mod bench_search;
+mod bench_tsne;
 mod bench_ward;
 mod explore_cmd;
 mod features_cmd;
@@ -78,6 +79,8 @@ enum BenchCommand {
     Ward(bench_ward::BenchWardArgs),
     /// The balanced grid (SOM + Algorithms 3-4) and its baselines; the LAP beside scipy.
     Grid(bench_grid::BenchGridArgs),
+    /// t-SNE of seeded or real style rows, side by side with openTSNE.
+    Tsne(bench_tsne::BenchTsneArgs),
 }
 
 fn main() -> ExitCode {
@@ -114,6 +117,7 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Metric(a)) => done(metric_cmds::bench_metric(&a)),
         Command::Bench(BenchCommand::Ward(a)) => done(bench_ward::run(&a)),
         Command::Bench(BenchCommand::Grid(a)) => done(bench_grid::run(&a)),
+        Command::Bench(BenchCommand::Tsne(a)) => done(bench_tsne::run(&a)),
     };
     match result {
         Ok(code) => code,

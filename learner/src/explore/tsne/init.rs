@@ -92,7 +92,7 @@ pub(super) fn initial(points: &[f32], dim: usize, init: TsneInit, seed: u64) -> 
         p[0] *= scale;
         p[1] *= scale;
     });
-    if !(s1 > 1e-9 * s0) {
+    if s1.is_nan() || s1 <= 1e-9 * s0 {
         // Rank one (or one coordinate): the second axis is rounding noise; start it at random.
         for (p, r) in y.iter_mut().zip(normals(&mut rng, n)) {
             p[1] = r * START_STD;

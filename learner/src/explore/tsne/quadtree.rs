@@ -112,27 +112,27 @@ impl QuadTree {
         let first = self.nodes.len();
         self.nodes[at].children = first as u32;
         let half = side / 2.0;
-        for q in 0..4 {
+        for (&count, &begin) in counts.iter().zip(&bounds) {
             self.nodes.push(Node {
                 com: [0.0; 2],
                 side: half,
-                count: counts[q] as u32,
+                count: count as u32,
                 children: 0,
-                start: bounds[q] as u32,
-                end: (bounds[q] + counts[q]) as u32,
+                start: begin as u32,
+                end: (begin + count) as u32,
             });
         }
         let mut com = [0.0; 2];
-        for q in 0..4 {
+        for (q, &count) in counts.iter().enumerate() {
             let c = [
                 centre[0] + if q & 1 == 1 { half / 2.0 } else { -half / 2.0 },
                 centre[1] + if q & 2 == 2 { half / 2.0 } else { -half / 2.0 },
             ];
-            if counts[q] > 0 {
+            if count > 0 {
                 self.split(first + q, c, depth + 1, y, scratch);
                 let child = self.nodes[first + q];
-                com[0] += child.com[0] * counts[q] as f64;
-                com[1] += child.com[1] * counts[q] as f64;
+                com[0] += child.com[0] * count as f64;
+                com[1] += child.com[1] * count as f64;
             }
         }
         let count = (end - start) as f64;
