@@ -164,21 +164,42 @@ pub fn som(points: &[f32], dim: usize, params: &SomParams) -> Result<Som> {
 }
 
 /// Sets each item's BMU (lowest node index on ties) and returns the mean squared distance.
-/// `‖x − w‖² = ‖x‖² − 2x·w + ‖w‖²`; only the last two terms decide the BMU.
+/// `‖x − w‖² = ‖x‖² − 2x·w + ‖w‖²`; only the last two terms decide the BMU. The weights are
+/// transposed into blocks of 8 nodes so one item meets 8 nodes per vector operation (the lanes
+/// are nodes, not coordinates: no horizontal sums in the inner loop).
 pub(crate) fn best_matching(points: &[f32], dim: usize, weights: &[f32], bmu: &mut [usize]) -> f64 {
-    let norms: Vec<f32> = weights.chunks_exact(dim).map(|w| dot(w, w)).collect();
+    const L: usize = 8;
+    let cells = weights.len() / dim;
+    let blocks = cells.div_ceil(L);
+    let mut wt = vec![[0f32; L]; blocks * dim];
+    let mut norms = vec![[f32::INFINITY; L]; blocks];
+    for (j, w) in weights.chunks_exact(dim).enumerate() {
+        let (b, l) = (j / L, j % L);
+        for (d, v) in w.iter().enumerate() {
+            wt[b * dim + d][l] = *v;
+        }
+        norms[b][l] = dot(w, w);
+    }
     let errors: Vec<f64> = bmu
         .par_iter_mut()
         .zip(points.par_chunks_exact(dim))
-        .map(|(b, x)| {
+        .map(|(out, x)| {
             let mut best = (f32::INFINITY, 0usize);
-            for (j, w) in weights.chunks_exact(dim).enumerate() {
-                let d = norms[j] - 2.0 * dot(x, w);
-                if d < best.0 {
-                    best = (d, j);
+            for (b, (block, norm)) in wt.chunks_exact(dim).zip(&norms).enumerate() {
+                let mut acc = [0f32; L];
+                for (lanes, &xd) in block.iter().zip(x) {
+                    for l in 0..L {
+                        acc[l] += lanes[l] * xd;
+                    }
+                }
+                for l in 0..L {
+                    let d = norm[l] - 2.0 * acc[l];
+                    if d < best.0 {
+                        best = (d, b * L + l);
+                    }
                 }
             }
-            *b = best.1;
+            *out = best.1;
             (best.0 + dot(x, x)).max(0.0) as f64
         })
         .collect();

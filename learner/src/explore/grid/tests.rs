@@ -251,8 +251,8 @@ fn grid_spearman_matches_hand_values() {
 
 #[test]
 fn grid_cost_counts_eq_6_1_terms() {
-    // Two labels, 3 and 1 items, 2×2 grid: ideal shares are 2 and ... 3 slots? No: 4 slots,
-    // label 1 has one item so it gets 1, label 0 gets 3.
+    // Two labels with 3 and 1 items on a 2×2 grid: 4 slots, label 1 has one item so its share
+    // is 1 and label 0 takes the other 3.
     let labels = [0, 0, 0, 1];
     let mut grid = Grid::empty(2, 2);
     grid.nodes[0].shown = Some(0);
