@@ -255,8 +255,9 @@ pub fn run(a: &BenchTsneArgs) -> Result<()> {
     }
     if sides.len() == 2 {
         println!(
-            "ratio ours / openTSNE (time): {:.2}",
-            sides[0].seconds / sides[1].seconds
+            "ratio ours / openTSNE: time {:.2}, CPU {:.2}",
+            sides[0].seconds / sides[1].seconds,
+            sides[0].cpu_seconds / sides[1].cpu_seconds
         );
     }
     Ok(())

@@ -224,6 +224,9 @@ pub fn tsne(
 #[cfg(test)]
 mod tests;
 
+#[cfg(test)]
+mod error_tests;
+
 /// The embeddings against openTSNE's and scikit-learn's (reference values of
 /// `scripts/reference/tsne_reference.py`).
 #[cfg(test)]
