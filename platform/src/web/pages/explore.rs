@@ -1,0 +1,420 @@
+//! The admin's Explore pages (Garces et al. 2016 §6.5): choose a library, a metric and the
+//! semantic labels to explore, build the taxonomy as a background job (the page follows its
+//! progress through `explore.js`), see the representative styles, and open one as a balanced
+//! grid whose nodes that hide images open a pop-up listing them.
+
+use askama::Template;
+use axum::Router;
+use axum::body::Bytes;
+use axum::extract::State;
+use axum::response::{IntoResponse, Redirect, Response};
+use axum::routing::{get, post};
+use serde::Deserialize;
+
+use super::{page, render};
+use crate::AppState;
+use crate::error::{AppError, Result};
+use crate::explore::grid::{self, BranchGrid};
+use crate::explore::jobs::{self, Job, Kind};
+use crate::explore::taxonomy::{self, TaxonomyRequest, TaxonomyResult};
+use crate::explore::{LabelCount, label_counts, resolve};
+use crate::search::source;
+use crate::store::ids::ExplorationId;
+use crate::studies::library;
+use crate::web::admin::Admin;
+use crate::web::extract::{ApiPath, ApiQuery};
+
+/// The pages' routes.
+pub(super) fn routes() -> Router<AppState> {
+    Router::new()
+        .route("/admin/explore", get(explore_page))
+        .route("/admin/explore/taxonomy", post(build_taxonomy))
+        .route("/admin/explore/jobs/{job}", get(job_page))
+        .route("/admin/explore/jobs/{job}/styles/{style}", get(grid_page))
+}
+
+/// An option of a drop-down.
+struct Choice {
+    value: String,
+    label: String,
+    selected: bool,
+}
+
+/// A label checkbox.
+struct LabelBox {
+    label: String,
+    count: usize,
+}
+
+/// A stored exploration in the list.
+struct JobLink {
+    url: String,
+    text: String,
+}
+
+#[derive(Template)]
+#[template(path = "explore.html")]
+struct ExplorePage {
+    csrf: String,
+    library: String,
+    libraries: Vec<Choice>,
+    models: Vec<Choice>,
+    labels: Vec<LabelBox>,
+    kappa: usize,
+    tau: usize,
+    jobs: Vec<JobLink>,
+    error: Option<String>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+struct ExploreForm {
+    library: Option<String>,
+    model: Option<String>,
+}
+
+async fn explore_page(
+    State(state): State<AppState>,
+    admin: std::result::Result<Admin, AppError>,
+    form: std::result::Result<ApiQuery<ExploreForm>, AppError>,
+) -> Response {
+    page(
+        async {
+            let admin = admin?;
+            let ApiQuery(form) = form?;
+            let names = library::library_names(&state.db).await?;
+            let chosen = form
+                .library
+                .clone()
+                .filter(|l| !l.trim().is_empty())
+                .or_else(|| names.first().cloned());
+            let defaults = learner::explore::TaxonomyParams::default();
+            let mut p = ExplorePage {
+                csrf: admin.csrf,
+                library: chosen.clone().unwrap_or_default(),
+                libraries: names
+                    .iter()
+                    .map(|n| Choice {
+                        value: n.clone(),
+                        label: n.clone(),
+                        selected: Some(n) == chosen.as_ref(),
+                    })
+                    .collect(),
+                models: Vec::new(),
+                labels: Vec::new(),
+                kappa: defaults.kappa,
+                tau: defaults.tau,
+                jobs: Vec::new(),
+                error: None,
+            };
+            let Some(name) = chosen else {
+                p.error = Some("There is no library yet: import one first.".into());
+                return render(&p);
+            };
+            let model = form.model.clone().unwrap_or_default();
+            let library = match resolve(&state.db, &name, Some(&model)).await {
+                Ok((library, _)) => library,
+                Err(e @ (AppError::BadRequest(_) | AppError::Conflict(_))) => {
+                    p.error = Some(e.public_message());
+                    source::library_by_name(&state.db, &name).await?
+                }
+                Err(e) => return Err(e),
+            };
+            p.models = vec![
+                Choice {
+                    value: String::new(),
+                    label: "newest trained model".into(),
+                    selected: model.is_empty(),
+                },
+                Choice {
+                    value: "uniform".into(),
+                    label: "uniform weights".into(),
+                    selected: model == "uniform",
+                },
+            ];
+            for m in source::models_for(&state.db, library).await? {
+                p.models.push(Choice {
+                    value: m.id.to_string(),
+                    label: format!("model {} ({})", m.id, m.study),
+                    selected: model == m.id.to_string(),
+                });
+            }
+            p.labels = label_counts(&state.db, library)
+                .await?
+                .into_iter()
+                .map(|LabelCount { label, count }| LabelBox { label, count })
+                .collect();
+            p.jobs = jobs::recent(&state.db, library, Kind::Taxonomy, 20)
+                .await?
+                .iter()
+                .map(|j| JobLink {
+                    url: format!("/admin/explore/jobs/{}", j.id),
+                    text: format!("{} · {}", describe(j), j.status),
+                })
+                .collect();
+            render(&p)
+        }
+        .await,
+    )
+}
+
+/// `labels a, b · κ 20 · τ 2 · model 12` for a job's parameters.
+fn describe(j: &Job) -> String {
+    let labels: Vec<&str> = j.params["labels"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|v| v.as_str()).collect())
+        .unwrap_or_default();
+    format!(
+        "{} · κ {} · τ {} · {}",
+        if labels.is_empty() {
+            "all labels".to_owned()
+        } else {
+            labels.join(", ")
+        },
+        j.params["kappa"],
+        j.params["tau"],
+        j.model
+            .map_or_else(|| "uniform weights".to_owned(), |m| format!("model {m}"))
+    )
+}
+
+/// A whole number field of the form (empty: the default).
+fn number(name: &str, value: Option<&str>) -> Result<Option<usize>> {
+    match value.map(str::trim) {
+        None | Some("") => Ok(None),
+        Some(v) => v.parse().map(Some).map_err(|_| {
+            AppError::BadRequest(format!(
+                "{name}: a whole number, not {:?}",
+                v.chars().take(40).collect::<String>()
+            ))
+        }),
+    }
+}
+
+/// The form posts repeated `labels` fields (checkboxes), which serde's form decoding cannot
+/// gather, so it is read pair by pair.
+async fn build_taxonomy(
+    State(state): State<AppState>,
+    admin: std::result::Result<Admin, AppError>,
+    body: Bytes,
+) -> Response {
+    page(
+        async {
+            let admin = admin?;
+            let mut req = TaxonomyRequest::default();
+            let (mut csrf, mut kappa, mut tau) = (None, None, None);
+            for (k, v) in form_urlencoded::parse(&body) {
+                match k.as_ref() {
+                    "csrf" => csrf = Some(v.into_owned()),
+                    "library" => req.library = v.into_owned(),
+                    "model" => req.model = Some(v.into_owned()),
+                    "labels" => req.labels.push(v.into_owned()),
+                    "kappa" => kappa = Some(v.into_owned()),
+                    "tau" => tau = Some(v.into_owned()),
+                    other => {
+                        return Err(AppError::BadRequest(format!(
+                            "unknown field {:?}",
+                            other.chars().take(40).collect::<String>()
+                        )));
+                    }
+                }
+            }
+            admin.check_csrf(csrf.as_deref())?;
+            req.kappa = number("κ", kappa.as_deref())?;
+            req.tau = number("τ", tau.as_deref())?;
+            let (id, _) = taxonomy::start(&state, &req).await?;
+            Ok(Redirect::to(&format!("/admin/explore/jobs/{id}")).into_response())
+        }
+        .await,
+    )
+}
+
+/// A representative style as the page shows it.
+struct StyleCard {
+    url: String,
+    thumbnail: String,
+    name: String,
+    count: usize,
+    labels: String,
+}
+
+#[derive(Template)]
+#[template(path = "explore_job.html")]
+struct JobPage {
+    id: ExplorationId,
+    library: String,
+    /// The Explore page of the library.
+    back: String,
+    title: String,
+    status: String,
+    stage: String,
+    done: i64,
+    total: i64,
+    error: Option<String>,
+    summary: Option<String>,
+    styles: Vec<StyleCard>,
+}
+
+async fn job_page(
+    State(state): State<AppState>,
+    admin: std::result::Result<Admin, AppError>,
+    id: std::result::Result<ApiPath<ExplorationId>, AppError>,
+) -> Response {
+    page(
+        async {
+            admin?;
+            let ApiPath(id) = id?;
+            let job = jobs::load(&state.db, id).await?;
+            let library = source::library_name(&state.db, job.library).await?;
+            let mut p = JobPage {
+                id,
+                title: describe(&job),
+                back: format!(
+                    "/admin/explore?{}",
+                    form_urlencoded::Serializer::new(String::new())
+                        .append_pair("library", &library)
+                        .finish()
+                ),
+                library,
+                status: job.status.clone(),
+                stage: job.stage.clone(),
+                done: job.done,
+                total: job.total,
+                error: job.error.clone(),
+                summary: None,
+                styles: Vec::new(),
+            };
+            if let Some(result) = &job.result {
+                let r: TaxonomyResult =
+                    serde_json::from_value(result.clone()).map_err(AppError::internal)?;
+                p.summary = Some(format!(
+                    "{} representative styles over {} items ({} in branches too small to keep){}.",
+                    r.representatives.len(),
+                    r.items,
+                    r.unassigned,
+                    r.kmeans_centres.map_or_else(String::new, |c| format!(
+                        "; Ward ran on {c} k-means centres"
+                    ))
+                ));
+                p.styles = r
+                    .representatives
+                    .iter()
+                    .enumerate()
+                    .map(|(k, s)| StyleCard {
+                        url: format!("/admin/explore/jobs/{id}/styles/{k}"),
+                        thumbnail: format!("/media/items/{}.png", s.id),
+                        name: s.name.clone(),
+                        count: s.count,
+                        labels: s
+                            .labels
+                            .iter()
+                            .map(|l| format!("{} {}", l.count, l.label))
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    })
+                    .collect();
+            }
+            render(&p)
+        }
+        .await,
+    )
+}
+
+/// One node of the grid page.
+struct GridCell {
+    /// The shown item's image, if any.
+    thumbnail: Option<String>,
+    /// The shown item's id.
+    item: String,
+    /// The hidden images.
+    hidden: Vec<String>,
+    /// The pop-up's id.
+    dialog: String,
+}
+
+#[derive(Template)]
+#[template(path = "explore_grid.html")]
+struct GridPage {
+    job: ExplorationId,
+    style: usize,
+    grid: Option<BranchGrid>,
+    /// The nodes, by row.
+    cells: Vec<Vec<GridCell>>,
+    rows: String,
+    cols: String,
+    error: Option<String>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+struct GridForm {
+    rows: Option<String>,
+    cols: Option<String>,
+}
+
+async fn grid_page(
+    State(state): State<AppState>,
+    admin: std::result::Result<Admin, AppError>,
+    path: std::result::Result<ApiPath<(ExplorationId, usize)>, AppError>,
+    form: std::result::Result<ApiQuery<GridForm>, AppError>,
+) -> Response {
+    page(
+        async {
+            admin?;
+            let ApiPath((id, style)) = path?;
+            let ApiQuery(form) = form?;
+            let job = jobs::load(&state.db, id).await?;
+            grid::branch(&job, style)?;
+            let shape = (
+                number("rows", form.rows.as_deref())?,
+                number("cols", form.cols.as_deref())?,
+            );
+            let (grid, error) = match grid::layout(&state, &job, style, shape).await {
+                Ok(g) => (Some(g), None),
+                Err(e @ AppError::BadRequest(_)) => (None, Some(e.public_message())),
+                Err(e) => return Err(e),
+            };
+            let image = |id: &crate::store::ids::ItemId| format!("/media/items/{id}.png");
+            let cells = grid
+                .iter()
+                .flat_map(|g| g.cells.iter())
+                .enumerate()
+                .map(|(k, c)| GridCell {
+                    thumbnail: c.shown.as_ref().map(image),
+                    item: c.shown.map(|i| i.to_string()).unwrap_or_default(),
+                    hidden: c.hidden.iter().map(image).collect(),
+                    dialog: format!("hidden-{k}"),
+                })
+                .collect::<Vec<_>>();
+            let cols = grid.as_ref().map_or(1, |g| g.cols.max(1));
+            let mut by_row: Vec<Vec<GridCell>> = Vec::new();
+            for (k, c) in cells.into_iter().enumerate() {
+                if k % cols == 0 {
+                    by_row.push(Vec::new());
+                }
+                if let Some(last) = by_row.last_mut() {
+                    last.push(c);
+                }
+            }
+            let shown = |v: Option<usize>| v.map(|v| v.to_string()).unwrap_or_default();
+            let failed = error.is_some();
+            let mut response = render(&GridPage {
+                job: id,
+                style,
+                rows: grid
+                    .as_ref()
+                    .map_or_else(|| shown(shape.0), |g| g.rows.to_string()),
+                cols: grid
+                    .as_ref()
+                    .map_or_else(|| shown(shape.1), |g| g.cols.to_string()),
+                grid,
+                cells: by_row,
+                error,
+            })?;
+            // A shape the branch cannot fill is the request's fault: the form stays, with a 400.
+            if failed {
+                *response.status_mut() = axum::http::StatusCode::BAD_REQUEST;
+            }
+            Ok(response)
+        }
+        .await,
+    )
+}
