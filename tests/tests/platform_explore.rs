@@ -410,13 +410,140 @@ async fn explore_a_library(db: TestDb) {
         job["error"].as_str().is_some_and(|e| e.contains("stopped")),
         "{job}"
     );
-    let (status, restarted) = start(good).await;
+    let (status, restarted) = start(good.clone()).await;
     assert_eq!(status, 202);
     assert_eq!(restarted["started"], true);
     let new_id = restarted["id"].as_i64().expect("id");
     assert_ne!(new_id, id);
     let job = wait_done(&c, &base, &cookie, new_id).await;
     assert_eq!(job["result"]["representatives"], result["representatives"]);
+
+    // The style map: every item of the labels placed once; the view draws one thumbnail per
+    // occupied screen cell and dots for the rest.
+    let map_url = format!("{base}/api/v1/admin/explore/map");
+    let start_map = |body: Value| {
+        let req = c
+            .post(&map_url)
+            .header("cookie", &cookie)
+            .header("x-csrf-token", &csrf)
+            .json(&body);
+        async move { send(req).await }
+    };
+    let before = scalar(&db.url, "SELECT COUNT(*) FROM explorations").await;
+    for (body, message) in [
+        (
+            json!({"library": "clipart", "labels": ["noto"], "perplexity": 30}),
+            "perplexity",
+        ),
+        (
+            json!({"library": "clipart", "labels": ["moon"], "perplexity": 3}),
+            "moon",
+        ),
+        (json!({"library": "clipart", "per_label": 0}), "per_label"),
+        (
+            json!({"library": "clipart", "perplexity": -2}),
+            "perplexity",
+        ),
+    ] {
+        let (status, answer) = start_map(body.clone()).await;
+        assert_eq!(status, 400, "{body} → {answer}");
+        assert!(
+            answer["error"]
+                .as_str()
+                .is_some_and(|e| e.contains(message)),
+            "{body} → {answer}"
+        );
+    }
+    assert_eq!(
+        scalar(&db.url, "SELECT COUNT(*) FROM explorations").await,
+        before
+    );
+    let map_body = json!({"library": "clipart", "model": "uniform", "labels": ["noto", "twemoji"], "perplexity": 5});
+    let (status, started) = start_map(map_body.clone()).await;
+    assert_eq!(status, 202, "{started}");
+    let map_id = started["id"].as_i64().expect("id");
+    let job = wait_done(&c, &base, &cookie, map_id).await;
+    assert_eq!(job["status"], "done", "{job}");
+    let (status, again) = start_map(map_body).await;
+    assert_eq!(
+        (status, &again["id"], &again["started"]),
+        (202, &json!(map_id), &json!(false))
+    );
+    let mut mapped: Vec<i64> = job["result"]["items"]
+        .as_array()
+        .expect("items")
+        .iter()
+        .map(|v| v.as_i64().expect("id"))
+        .collect();
+    mapped.sort();
+    let mut expected_items: Vec<i64> = item_styles(&db.url)
+        .await
+        .into_iter()
+        .filter(|(_, s)| s == "noto" || s == "twemoji")
+        .map(|(id, _)| id)
+        .collect();
+    expected_items.sort();
+    assert_eq!(mapped, expected_items);
+    let view = |q: String| {
+        let req = c
+            .get(format!(
+                "{base}/api/v1/admin/explore/jobs/{map_id}/view?{q}"
+            ))
+            .header("cookie", &cookie);
+        async move { send(req).await }
+    };
+    let (status, v) = view("x0=-1e9&x1=1e9&y0=-1e9&y1=1e9&cols=1&rows=1".into()).await;
+    assert_eq!(status, 200, "{v}");
+    assert_eq!(
+        (v["total"].as_u64(), v["in_view"].as_u64()),
+        (Some(24), Some(24))
+    );
+    assert_eq!(v["thumbnails"].as_array().expect("thumbnails").len(), 1);
+    assert_eq!(v["dots"].as_array().expect("dots").len(), 23);
+    let b: Vec<f64> = v["bounds"]
+        .as_array()
+        .expect("bounds")
+        .iter()
+        .map(|x| x.as_f64().expect("n"))
+        .collect();
+    let (status, fine) = view(format!(
+        "x0={}&x1={}&y0={}&y1={}&cols=40&rows=40",
+        b[0],
+        b[2] + 1e-3,
+        b[1],
+        b[3] + 1e-3
+    ))
+    .await;
+    assert_eq!(status, 200, "{fine}");
+    let thumbs = fine["thumbnails"].as_array().expect("thumbnails").len();
+    assert_eq!(thumbs + fine["dots"].as_array().expect("dots").len(), 24);
+    assert!(thumbs > 1, "{fine}");
+    // Half the map's width holds fewer points.
+    let (_, half) = view(format!(
+        "x0={}&x1={}&y0={}&y1={}&cols=40&rows=40",
+        b[0],
+        (b[0] + b[2]) / 2.0,
+        b[1],
+        b[3] + 1e-3
+    ))
+    .await;
+    assert!(half["in_view"].as_u64() < Some(24), "{half}");
+    for q in [
+        "x0=1&x1=0&y0=0&y1=1&cols=1&rows=1",
+        "x0=0&x1=1&y0=0&y1=1&cols=100&rows=100",
+        "x0=0&x1=1&y0=0&y1=1&cols=0&rows=1",
+    ] {
+        let (status, body) = view(q.into()).await;
+        assert_eq!(status, 400, "{q}: {body}");
+    }
+    let (status, _) = send(
+        c.get(format!(
+            "{base}/api/v1/admin/explore/jobs/{id}/view?x0=0&x1=1&y0=0&y1=1&cols=1&rows=1"
+        ))
+        .header("cookie", &cookie),
+    )
+    .await;
+    assert_eq!(status, 404, "a taxonomy has no map view");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -543,6 +670,61 @@ async fn explore_in_chromium() {
         .expect("hidden images")
         .len();
     assert!(images >= 1);
+
+    // The style map: zooming in changes what is drawn (fewer items in view).
+    let http = client();
+    let (cookie, csrf) = admin_login(&http, &server.base).await;
+    let (status, started) = send(
+        http.post(server.url("/api/v1/admin/explore/map"))
+            .header("cookie", &cookie)
+            .header("x-csrf-token", &csrf)
+            .json(&json!({"library": "clipart", "model": "uniform", "labels": ["noto", "fluent-emoji"], "perplexity": 5})),
+    )
+    .await;
+    assert_eq!(status, 202, "{started}");
+    let map_id = started["id"].as_i64().expect("id");
+    wait_done(&http, &server.base, &cookie, map_id).await;
+    c.goto(&server.url(&format!("/admin/explore/jobs/{map_id}")))
+        .await
+        .expect("map page");
+    let drawn = "const m = document.getElementById('map'); return m && m.dataset.scale && Number(m.dataset.scale) > 1e-5 ? [Number(m.dataset.thumbnails), Number(m.dataset.dots), Number(m.dataset.scale)] : null";
+    let mut first = Value::Null;
+    for _ in 0..400 {
+        first = c.execute(drawn, vec![]).await.expect("map state");
+        if first.is_array() {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(25)).await;
+    }
+    assert!(first.is_array(), "the map was drawn");
+    assert_eq!(
+        first[0].as_f64().expect("n") + first[1].as_f64().expect("n"),
+        24.0,
+        "{first}"
+    );
+    c.execute(
+        "const m = document.getElementById('map'), r = m.getBoundingClientRect();\
+         for (let i = 0; i < 6; i++) m.dispatchEvent(new WheelEvent('wheel', {deltaY: -400, clientX: r.left + r.width / 2, clientY: r.top + r.height / 2, bubbles: true, cancelable: true}));",
+        vec![],
+    )
+    .await
+    .expect("zoom");
+    let mut zoomed = Value::Null;
+    for _ in 0..400 {
+        zoomed = c.execute(drawn, vec![]).await.expect("map state");
+        if zoomed[2].as_f64() > first[2].as_f64() && zoomed[0] != first[0] {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(25)).await;
+    }
+    assert!(
+        zoomed[2].as_f64() > first[2].as_f64(),
+        "zoomed in: {first} → {zoomed}"
+    );
+    assert_ne!(
+        zoomed[0], first[0],
+        "the thumbnails drawn changed: {first} → {zoomed}"
+    );
 
     let violations = csp_violations(&c, &driver).await;
     assert!(violations.is_empty(), "{violations:?}");

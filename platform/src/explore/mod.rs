@@ -9,6 +9,7 @@
 
 pub mod grid;
 pub mod jobs;
+pub mod map;
 pub mod taxonomy;
 
 use std::collections::BTreeMap;

@@ -135,6 +135,29 @@ pub async fn start(state: &AppState, req: &TaxonomyRequest) -> Result<(Explorati
 /// (the whole selection) passes κ and τ — when it does not, no branch does (a branch holds at
 /// most its parent's items), which is the learner's `PrunedEverything`.
 pub fn check(counts: &[LabelCount], labels: &[String], params: &TaxonomyParams) -> Result<()> {
+    let items = check_labels(counts, labels)?;
+    let count_of = |l: &str| counts.iter().find(|c| c.label == l).map(|c| c.count);
+    let root_kept =
+        items > params.kappa && labels.iter().all(|l| count_of(l).unwrap_or(0) > params.tau);
+    if !root_kept {
+        let per_label = labels
+            .iter()
+            .map(|l| format!(", {} of them `{l}`", count_of(l).unwrap_or(0)))
+            .collect();
+        let e = learner::Error::PrunedEverything {
+            kappa: params.kappa,
+            tau: params.tau,
+            items,
+            per_label,
+        };
+        return Err(AppError::BadRequest(e.to_string()));
+    }
+    Ok(())
+}
+
+/// Checks that every label of `labels` is one of the library's (`counts`) and that they hold
+/// at least 2 items; returns how many (every item when `labels` is empty).
+pub fn check_labels(counts: &[LabelCount], labels: &[String]) -> Result<usize> {
     let count_of = |l: &str| counts.iter().find(|c| c.label == l).map(|c| c.count);
     let missing: Vec<&str> = labels
         .iter()
@@ -160,25 +183,10 @@ pub fn check(counts: &[LabelCount], labels: &[String], params: &TaxonomyParams) 
     };
     if items < 2 {
         return Err(AppError::BadRequest(format!(
-            "a style taxonomy needs at least 2 items; the labels chosen have {items}"
+            "an exploration needs at least 2 items; the labels chosen have {items}"
         )));
     }
-    let root_kept =
-        items > params.kappa && labels.iter().all(|l| count_of(l).unwrap_or(0) > params.tau);
-    if !root_kept {
-        let per_label = labels
-            .iter()
-            .map(|l| format!(", {} of them `{l}`", count_of(l).unwrap_or(0)))
-            .collect();
-        let e = learner::Error::PrunedEverything {
-            kappa: params.kappa,
-            tau: params.tau,
-            items,
-            per_label,
-        };
-        return Err(AppError::BadRequest(e.to_string()));
-    }
-    Ok(())
+    Ok(items)
 }
 
 /// The style library of the items of `labels` (every item when empty) in `built`'s style space,

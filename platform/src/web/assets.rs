@@ -56,6 +56,11 @@ const ASSETS: &[Asset] = &[
         content_type: "text/javascript; charset=utf-8",
         body: include_bytes!("../../static/explore.js"),
     },
+    Asset {
+        name: "explore_map.js",
+        content_type: "text/javascript; charset=utf-8",
+        body: include_bytes!("../../static/explore_map.js"),
+    },
     // 32×32 PNG in an ICO container: three dots, a triplet, on the links' blue.
     Asset {
         name: "favicon.ico",

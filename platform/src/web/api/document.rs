@@ -53,6 +53,8 @@ use crate::error::ErrorBody;
         explore::admin_start_taxonomy,
         explore::admin_job,
         explore::admin_grid,
+        explore::admin_start_map,
+        explore::admin_map_view,
         compositions::create_composition,
         compositions::list_compositions,
         compositions::get_composition,

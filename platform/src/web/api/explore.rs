@@ -11,6 +11,7 @@ use crate::AppState;
 use crate::error::{ErrorBody, Result};
 use crate::explore::grid::{self, BranchGrid};
 use crate::explore::jobs::{self, Job};
+use crate::explore::map::{self, MapRequest, MapView, ViewQuery};
 use crate::explore::taxonomy::{self, TaxonomyRequest};
 use crate::store::ids::ExplorationId;
 use crate::web::admin::Admin;
@@ -85,4 +86,36 @@ pub(super) async fn admin_grid(
     Ok(Json(
         grid::layout(&state, &job, style, (q.rows, q.cols)).await?,
     ))
+}
+
+/// Computes the style map (t-SNE of a library's items of some labels, or of representatives
+/// per label) in the background, or reuses the stored job with the same parameters.
+#[utoipa::path(post, path = "/api/v1/admin/explore/map", request_body = MapRequest,
+    responses((status = 202, body = JobStarted),
+        (status = 404, description = "No such library or model", body = ErrorBody),
+        (status = 409, description = "The model is not finished", body = ErrorBody)))]
+pub(super) async fn admin_start_map(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiJson(req): ApiJson<MapRequest>,
+) -> Result<(StatusCode, Json<JobStarted>)> {
+    let (id, started) = map::start(&state, &req).await?;
+    Ok((StatusCode::ACCEPTED, Json(JobStarted { id, started })))
+}
+
+/// What to draw of a finished style map in a viewport: at most one thumbnail per screen cell
+/// (at most 2,000), dots for the viewport's other points.
+#[utoipa::path(get, path = "/api/v1/admin/explore/jobs/{job}/view",
+    params(("job" = i64, Path, description = "The exploration"), ViewQuery),
+    responses((status = 200, body = MapView),
+        (status = 404, description = "No such exploration or not a map", body = ErrorBody),
+        (status = 409, description = "The map is not done", body = ErrorBody)))]
+pub(super) async fn admin_map_view(
+    _admin: Admin,
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<ExplorationId>,
+    ApiQuery(q): ApiQuery<ViewQuery>,
+) -> Result<Json<MapView>> {
+    let job = jobs::load(&state.db, id).await?;
+    Ok(Json(map::view(&job, &q)?))
 }

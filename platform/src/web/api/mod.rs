@@ -128,7 +128,12 @@ pub fn routes() -> Router<AppState> {
             "/api/v1/admin/explore/taxonomy",
             post(explore::admin_start_taxonomy),
         )
+        .route("/api/v1/admin/explore/map", post(explore::admin_start_map))
         .route("/api/v1/admin/explore/jobs/{job}", get(explore::admin_job))
+        .route(
+            "/api/v1/admin/explore/jobs/{job}/view",
+            get(explore::admin_map_view),
+        )
         .route(
             "/api/v1/admin/explore/jobs/{job}/styles/{style}/grid",
             get(explore::admin_grid),

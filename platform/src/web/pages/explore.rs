@@ -16,6 +16,7 @@ use crate::AppState;
 use crate::error::{AppError, Result};
 use crate::explore::grid::{self, BranchGrid};
 use crate::explore::jobs::{self, Job, Kind};
+use crate::explore::map::{self, MapRequest};
 use crate::explore::taxonomy::{self, TaxonomyRequest, TaxonomyResult};
 use crate::explore::{LabelCount, label_counts, resolve};
 use crate::search::source;
@@ -29,6 +30,7 @@ pub(super) fn routes() -> Router<AppState> {
     Router::new()
         .route("/admin/explore", get(explore_page))
         .route("/admin/explore/taxonomy", post(build_taxonomy))
+        .route("/admin/explore/map", post(build_map))
         .route("/admin/explore/jobs/{job}", get(job_page))
         .route("/admin/explore/jobs/{job}/styles/{style}", get(grid_page))
 }
@@ -143,14 +145,18 @@ async fn explore_page(
                 .into_iter()
                 .map(|LabelCount { label, count }| LabelBox { label, count })
                 .collect();
-            p.jobs = jobs::recent(&state.db, library, Kind::Taxonomy, 20)
-                .await?
-                .iter()
-                .map(|j| JobLink {
-                    url: format!("/admin/explore/jobs/{}", j.id),
-                    text: format!("{} · {}", describe(j), j.status),
-                })
-                .collect();
+            for kind in [Kind::Taxonomy, Kind::Map] {
+                for j in jobs::recent(&state.db, library, kind, 20).await? {
+                    let what = match kind {
+                        Kind::Taxonomy => describe(&j),
+                        Kind::Map => describe_map(&j),
+                    };
+                    p.jobs.push(JobLink {
+                        url: format!("/admin/explore/jobs/{}", j.id),
+                        text: format!("{what} · {}", j.status),
+                    });
+                }
+            }
             render(&p)
         }
         .await,
@@ -172,6 +178,28 @@ fn describe(j: &Job) -> String {
         },
         j.params["kappa"],
         j.params["tau"],
+        j.model
+            .map_or_else(|| "uniform weights".to_owned(), |m| format!("model {m}"))
+    )
+}
+
+/// `labels a, b · 100 per label · perplexity 30 · model 12` for a map's parameters.
+fn describe_map(j: &Job) -> String {
+    let labels: Vec<&str> = j.params["labels"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|v| v.as_str()).collect())
+        .unwrap_or_default();
+    format!(
+        "style map of {} · {} · perplexity {} · {}",
+        if labels.is_empty() {
+            "all labels".to_owned()
+        } else {
+            labels.join(", ")
+        },
+        j.params["per_label"]
+            .as_u64()
+            .map_or_else(|| "every item".to_owned(), |k| format!("{k} per label")),
+        j.params["perplexity"],
         j.model
             .map_or_else(|| "uniform weights".to_owned(), |m| format!("model {m}"))
     )
@@ -210,6 +238,8 @@ async fn build_taxonomy(
                     "labels" => req.labels.push(v.into_owned()),
                     "kappa" => kappa = Some(v.into_owned()),
                     "tau" => tau = Some(v.into_owned()),
+                    // The map's fields: one form has both buttons.
+                    "per_label" | "perplexity" => {}
                     other => {
                         return Err(AppError::BadRequest(format!(
                             "unknown field {:?}",
@@ -222,6 +252,54 @@ async fn build_taxonomy(
             req.kappa = number("κ", kappa.as_deref())?;
             req.tau = number("τ", tau.as_deref())?;
             let (id, _) = taxonomy::start(&state, &req).await?;
+            Ok(Redirect::to(&format!("/admin/explore/jobs/{id}")).into_response())
+        }
+        .await,
+    )
+}
+
+/// The map form: the same library, model and labels, the representatives per label (empty:
+/// every item) and the perplexity.
+async fn build_map(
+    State(state): State<AppState>,
+    admin: std::result::Result<Admin, AppError>,
+    body: Bytes,
+) -> Response {
+    page(
+        async {
+            let admin = admin?;
+            let mut req = MapRequest::default();
+            let (mut csrf, mut per_label, mut perplexity) = (None, None, None);
+            for (k, v) in form_urlencoded::parse(&body) {
+                match k.as_ref() {
+                    "csrf" => csrf = Some(v.into_owned()),
+                    "library" => req.library = v.into_owned(),
+                    "model" => req.model = Some(v.into_owned()),
+                    "labels" => req.labels.push(v.into_owned()),
+                    "per_label" => per_label = Some(v.into_owned()),
+                    "perplexity" => perplexity = Some(v.into_owned()),
+                    // The taxonomy's fields: one form has both buttons.
+                    "kappa" | "tau" => {}
+                    other => {
+                        return Err(AppError::BadRequest(format!(
+                            "unknown field {:?}",
+                            other.chars().take(40).collect::<String>()
+                        )));
+                    }
+                }
+            }
+            admin.check_csrf(csrf.as_deref())?;
+            req.per_label = number("representatives per label", per_label.as_deref())?;
+            req.perplexity = match perplexity.as_deref().map(str::trim) {
+                None | Some("") => None,
+                Some(v) => Some(v.parse().map_err(|_| {
+                    AppError::BadRequest(format!(
+                        "perplexity: a number, not {:?}",
+                        v.chars().take(40).collect::<String>()
+                    ))
+                })?),
+            };
+            let (id, _) = map::start(&state, &req).await?;
             Ok(Redirect::to(&format!("/admin/explore/jobs/{id}")).into_response())
         }
         .await,
@@ -252,6 +330,8 @@ struct JobPage {
     error: Option<String>,
     summary: Option<String>,
     styles: Vec<StyleCard>,
+    /// A style map (drawn by `explore_map.js`) rather than a taxonomy.
+    is_map: bool,
 }
 
 async fn job_page(
@@ -282,8 +362,11 @@ async fn job_page(
                 error: job.error.clone(),
                 summary: None,
                 styles: Vec::new(),
+                is_map: job.kind == "map",
             };
-            if let Some(result) = &job.result {
+            if p.is_map {
+                p.title = describe_map(&job);
+            } else if let Some(result) = &job.result {
                 let r: TaxonomyResult =
                     serde_json::from_value(result.clone()).map_err(AppError::internal)?;
                 p.summary = Some(format!(
