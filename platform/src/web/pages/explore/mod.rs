@@ -3,21 +3,21 @@
 //! progress through `explore.js`), see the representative styles, and open one as a balanced
 //! grid whose nodes that hide images open a pop-up listing them.
 
+mod forms;
+mod grid_page;
+
 use askama::Template;
 use axum::Router;
-use axum::body::Bytes;
 use axum::extract::State;
-use axum::response::{IntoResponse, Redirect, Response};
+use axum::response::Response;
 use axum::routing::{get, post};
 use serde::Deserialize;
 
 use super::{page, render};
 use crate::AppState;
-use crate::error::{AppError, Result};
-use crate::explore::grid::{self, BranchGrid};
+use crate::error::AppError;
 use crate::explore::jobs::{self, Job, Kind};
-use crate::explore::map::{self, MapRequest};
-use crate::explore::taxonomy::{self, TaxonomyRequest, TaxonomyResult};
+use crate::explore::taxonomy::TaxonomyResult;
 use crate::explore::{LabelCount, label_counts, resolve};
 use crate::search::source;
 use crate::store::ids::ExplorationId;
@@ -29,10 +29,13 @@ use crate::web::extract::{ApiPath, ApiQuery};
 pub(super) fn routes() -> Router<AppState> {
     Router::new()
         .route("/admin/explore", get(explore_page))
-        .route("/admin/explore/taxonomy", post(build_taxonomy))
-        .route("/admin/explore/map", post(build_map))
+        .route("/admin/explore/taxonomy", post(forms::build_taxonomy))
+        .route("/admin/explore/map", post(forms::build_map))
         .route("/admin/explore/jobs/{job}", get(job_page))
-        .route("/admin/explore/jobs/{job}/styles/{style}", get(grid_page))
+        .route(
+            "/admin/explore/jobs/{job}/styles/{style}",
+            get(grid_page::grid_page),
+        )
 }
 
 /// An option of a drop-down.
@@ -205,107 +208,6 @@ fn describe_map(j: &Job) -> String {
     )
 }
 
-/// A whole number field of the form (empty: the default).
-fn number(name: &str, value: Option<&str>) -> Result<Option<usize>> {
-    match value.map(str::trim) {
-        None | Some("") => Ok(None),
-        Some(v) => v.parse().map(Some).map_err(|_| {
-            AppError::BadRequest(format!(
-                "{name}: a whole number, not {:?}",
-                v.chars().take(40).collect::<String>()
-            ))
-        }),
-    }
-}
-
-/// The form posts repeated `labels` fields (checkboxes), which serde's form decoding cannot
-/// gather, so it is read pair by pair.
-async fn build_taxonomy(
-    State(state): State<AppState>,
-    admin: std::result::Result<Admin, AppError>,
-    body: Bytes,
-) -> Response {
-    page(
-        async {
-            let admin = admin?;
-            let mut req = TaxonomyRequest::default();
-            let (mut csrf, mut kappa, mut tau) = (None, None, None);
-            for (k, v) in form_urlencoded::parse(&body) {
-                match k.as_ref() {
-                    "csrf" => csrf = Some(v.into_owned()),
-                    "library" => req.library = v.into_owned(),
-                    "model" => req.model = Some(v.into_owned()),
-                    "labels" => req.labels.push(v.into_owned()),
-                    "kappa" => kappa = Some(v.into_owned()),
-                    "tau" => tau = Some(v.into_owned()),
-                    // The map's fields: one form has both buttons.
-                    "per_label" | "perplexity" => {}
-                    other => {
-                        return Err(AppError::BadRequest(format!(
-                            "unknown field {:?}",
-                            other.chars().take(40).collect::<String>()
-                        )));
-                    }
-                }
-            }
-            admin.check_csrf(csrf.as_deref())?;
-            req.kappa = number("κ", kappa.as_deref())?;
-            req.tau = number("τ", tau.as_deref())?;
-            let (id, _) = taxonomy::start(&state, &req).await?;
-            Ok(Redirect::to(&format!("/admin/explore/jobs/{id}")).into_response())
-        }
-        .await,
-    )
-}
-
-/// The map form: the same library, model and labels, the representatives per label (empty:
-/// every item) and the perplexity.
-async fn build_map(
-    State(state): State<AppState>,
-    admin: std::result::Result<Admin, AppError>,
-    body: Bytes,
-) -> Response {
-    page(
-        async {
-            let admin = admin?;
-            let mut req = MapRequest::default();
-            let (mut csrf, mut per_label, mut perplexity) = (None, None, None);
-            for (k, v) in form_urlencoded::parse(&body) {
-                match k.as_ref() {
-                    "csrf" => csrf = Some(v.into_owned()),
-                    "library" => req.library = v.into_owned(),
-                    "model" => req.model = Some(v.into_owned()),
-                    "labels" => req.labels.push(v.into_owned()),
-                    "per_label" => per_label = Some(v.into_owned()),
-                    "perplexity" => perplexity = Some(v.into_owned()),
-                    // The taxonomy's fields: one form has both buttons.
-                    "kappa" | "tau" => {}
-                    other => {
-                        return Err(AppError::BadRequest(format!(
-                            "unknown field {:?}",
-                            other.chars().take(40).collect::<String>()
-                        )));
-                    }
-                }
-            }
-            admin.check_csrf(csrf.as_deref())?;
-            req.per_label = number("representatives per label", per_label.as_deref())?;
-            req.perplexity = match perplexity.as_deref().map(str::trim) {
-                None | Some("") => None,
-                Some(v) => Some(v.parse().map_err(|_| {
-                    AppError::BadRequest(format!(
-                        "perplexity: a number, not {:?}",
-                        v.chars().take(40).collect::<String>()
-                    ))
-                })?),
-            };
-            let (id, _) = map::start(&state, &req).await?;
-            Ok(Redirect::to(&format!("/admin/explore/jobs/{id}")).into_response())
-        }
-        .await,
-    )
-}
-
 /// A representative style as the page shows it.
 struct StyleCard {
     url: String,
@@ -397,106 +299,6 @@ async fn job_page(
                     .collect();
             }
             render(&p)
-        }
-        .await,
-    )
-}
-
-/// One node of the grid page.
-struct GridCell {
-    /// The shown item's image, if any.
-    thumbnail: Option<String>,
-    /// The shown item's id.
-    item: String,
-    /// The hidden images.
-    hidden: Vec<String>,
-    /// The pop-up's id.
-    dialog: String,
-}
-
-#[derive(Template)]
-#[template(path = "explore_grid.html")]
-struct GridPage {
-    job: ExplorationId,
-    style: usize,
-    grid: Option<BranchGrid>,
-    /// The nodes, by row.
-    cells: Vec<Vec<GridCell>>,
-    rows: String,
-    cols: String,
-    error: Option<String>,
-}
-
-#[derive(Debug, Default, Deserialize)]
-struct GridForm {
-    rows: Option<String>,
-    cols: Option<String>,
-}
-
-async fn grid_page(
-    State(state): State<AppState>,
-    admin: std::result::Result<Admin, AppError>,
-    path: std::result::Result<ApiPath<(ExplorationId, usize)>, AppError>,
-    form: std::result::Result<ApiQuery<GridForm>, AppError>,
-) -> Response {
-    page(
-        async {
-            admin?;
-            let ApiPath((id, style)) = path?;
-            let ApiQuery(form) = form?;
-            let job = jobs::load(&state.db, id).await?;
-            grid::branch(&job, style)?;
-            let shape = (
-                number("rows", form.rows.as_deref())?,
-                number("cols", form.cols.as_deref())?,
-            );
-            let (grid, error) = match grid::layout(&state, &job, style, shape).await {
-                Ok(g) => (Some(g), None),
-                Err(e @ AppError::BadRequest(_)) => (None, Some(e.public_message())),
-                Err(e) => return Err(e),
-            };
-            let image = |id: &crate::store::ids::ItemId| format!("/media/items/{id}.png");
-            let cells = grid
-                .iter()
-                .flat_map(|g| g.cells.iter())
-                .enumerate()
-                .map(|(k, c)| GridCell {
-                    thumbnail: c.shown.as_ref().map(image),
-                    item: c.shown.map(|i| i.to_string()).unwrap_or_default(),
-                    hidden: c.hidden.iter().map(image).collect(),
-                    dialog: format!("hidden-{k}"),
-                })
-                .collect::<Vec<_>>();
-            let cols = grid.as_ref().map_or(1, |g| g.cols.max(1));
-            let mut by_row: Vec<Vec<GridCell>> = Vec::new();
-            for (k, c) in cells.into_iter().enumerate() {
-                if k % cols == 0 {
-                    by_row.push(Vec::new());
-                }
-                if let Some(last) = by_row.last_mut() {
-                    last.push(c);
-                }
-            }
-            let shown = |v: Option<usize>| v.map(|v| v.to_string()).unwrap_or_default();
-            let failed = error.is_some();
-            let mut response = render(&GridPage {
-                job: id,
-                style,
-                rows: grid
-                    .as_ref()
-                    .map_or_else(|| shown(shape.0), |g| g.rows.to_string()),
-                cols: grid
-                    .as_ref()
-                    .map_or_else(|| shown(shape.1), |g| g.cols.to_string()),
-                grid,
-                cells: by_row,
-                error,
-            })?;
-            // A shape the branch cannot fill is the request's fault: the form stays, with a 400.
-            if failed {
-                *response.status_mut() = axum::http::StatusCode::BAD_REQUEST;
-            }
-            Ok(response)
         }
         .await,
     )
