@@ -671,6 +671,37 @@ async fn explore_in_chromium() {
         .len();
     assert!(images >= 1);
 
+    // "Use in mash-up" opens the canvas with that item placed on it.
+    let link = attr(&c, ".use-mashup", "href").await;
+    let item: i64 = link
+        .rsplit('=')
+        .next()
+        .expect("item")
+        .parse()
+        .expect("item id");
+    let link = if link.starts_with("http") {
+        link
+    } else {
+        server.url(&link)
+    };
+    c.goto(&link).await.expect("mash-up page");
+    let mut pieces = Value::Null;
+    for _ in 0..400 {
+        pieces = c
+            .execute(
+                "const m = document.getElementById('mashup'); return m && m.dataset.document ? JSON.parse(m.dataset.document).pieces : null",
+                vec![],
+            )
+            .await
+            .expect("document");
+        if pieces.as_array().is_some_and(|p| !p.is_empty()) {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(25)).await;
+    }
+    assert_eq!(pieces.as_array().map(Vec::len), Some(1), "{pieces}");
+    assert_eq!(pieces[0]["item"], json!(item));
+
     // The style map: zooming in changes what is drawn (fewer items in view).
     let http = client();
     let (cookie, csrf) = admin_login(&http, &server.base).await;
