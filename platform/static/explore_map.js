@@ -49,6 +49,11 @@
         ctx.strokeRect(sx - THUMB / 2, sy - THUMB / 2, THUMB, THUMB);
       }
     }
+    canvas.dataset.firstThumbnail = "";
+    if (data.thumbnails.length) {
+      const [fx, fy] = toScreen(data.thumbnails[0].x, data.thumbnails[0].y);
+      canvas.dataset.firstThumbnail = fx.toFixed(1) + "," + fy.toFixed(1);
+    }
     canvas.dataset.thumbnails = String(data.thumbnails.length);
     canvas.dataset.dots = String(data.dots.length);
     if (count) {
@@ -97,11 +102,37 @@
     zoomAt(sx, sy, Math.exp(-e.deltaY * 0.002));
   }, { passive: false });
 
+  // A click (no drag) on a thumbnail offers it to the mash-up canvas.
+  const selected = document.getElementById("map-selected");
+  function pick(p) {
+    if (!data || !selected) return;
+    const hit = data.thumbnails.find(function (t) {
+      const [sx, sy] = toScreen(t.x, t.y);
+      return Math.abs(sx - p[0]) <= THUMB / 2 && Math.abs(sy - p[1]) <= THUMB / 2;
+    });
+    selected.replaceChildren();
+    if (!hit) return;
+    const img = document.createElement("img");
+    img.src = hit.url;
+    img.width = 64;
+    img.height = 64;
+    img.alt = "item " + hit.id;
+    const a = document.createElement("a");
+    a.id = "map-mashup";
+    a.href = "/admin/mashup?item=" + hit.id;
+    a.textContent = "Use item " + hit.id + " in the mash-up canvas";
+    selected.append(img, " ", a);
+  }
+
   const pointers = new Map();
   let pinch = 0;
+  let pressed = null;
   canvas.addEventListener("pointerdown", function (e) {
-    canvas.setPointerCapture(e.pointerId);
+    if (canvas.setPointerCapture) {
+      try { canvas.setPointerCapture(e.pointerId); } catch (err) { /* synthetic pointer */ }
+    }
     pointers.set(e.pointerId, canvasPoint(e));
+    pressed = pointers.size === 1 ? canvasPoint(e) : null;
   });
   canvas.addEventListener("pointermove", function (e) {
     if (!view || !pointers.has(e.pointerId)) return;
@@ -120,6 +151,9 @@
     }
   });
   const up = function (e) {
+    const p = canvasPoint(e);
+    if (pressed && pointers.size === 1 && Math.hypot(p[0] - pressed[0], p[1] - pressed[1]) < 4) pick(p);
+    pressed = null;
     pointers.delete(e.pointerId);
     pinch = 0;
   };

@@ -733,9 +733,23 @@ async fn explore_in_chromium() {
         24.0,
         "{first}"
     );
+    // A click on a drawn thumbnail offers it to the mash-up canvas.
+    let at = attr(&c, "#map", "data-first-thumbnail").await;
+    let (sx, sy) = at.split_once(',').expect("x,y");
     c.execute(
         "const m = document.getElementById('map'), r = m.getBoundingClientRect();\
-         for (let i = 0; i < 6; i++) m.dispatchEvent(new WheelEvent('wheel', {deltaY: -400, clientX: r.left + r.width / 2, clientY: r.top + r.height / 2, bubbles: true, cancelable: true}));",
+         const x = r.left + Number(arguments[0]) * r.width / m.width, y = r.top + Number(arguments[1]) * r.height / m.height;\
+         for (const type of ['pointerdown', 'pointerup']) m.dispatchEvent(new PointerEvent(type, {pointerId: 7, clientX: x, clientY: y, bubbles: true}));",
+        vec![json!(sx), json!(sy)],
+    )
+    .await
+    .expect("click a thumbnail");
+    let href = attr(&c, "#map-mashup", "href").await;
+    assert!(href.contains("/admin/mashup?item="), "{href}");
+
+    c.execute(
+        "const m = document.getElementById('map'), r = m.getBoundingClientRect();\
+         for (let i = 0; i < 2; i++) m.dispatchEvent(new WheelEvent('wheel', {deltaY: -400, clientX: r.left + r.width / 2, clientY: r.top + r.height / 2, bubbles: true, cancelable: true}));",
         vec![],
     )
     .await
