@@ -259,3 +259,84 @@ pub fn view(job: &Job, q: &ViewQuery) -> Result<MapView> {
         dots: rest.into_iter().step_by(stride).collect(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::store::ids::LibraryId;
+
+    fn job(points: &[(i64, f32, f32)]) -> Job {
+        let result = MapResult {
+            items: points.iter().map(|p| ItemId(p.0)).collect(),
+            x: points.iter().map(|p| p.1).collect(),
+            y: points.iter().map(|p| p.2).collect(),
+            kl_divergence: 0.0,
+        };
+        Job {
+            id: ExplorationId(1),
+            library: LibraryId(1),
+            model: None,
+            kind: "map".into(),
+            params: serde_json::Value::Null,
+            status: "done".into(),
+            stage: "done".into(),
+            done: 1,
+            total: 1,
+            error: None,
+            created_at: 0,
+            finished_at: Some(0),
+            result: Some(serde_json::to_value(result).expect("JSON")),
+        }
+    }
+
+    fn q(x0: f64, x1: f64, y0: f64, y1: f64, cols: usize, rows: usize) -> ViewQuery {
+        ViewQuery {
+            x0,
+            x1,
+            y0,
+            y1,
+            cols,
+            rows,
+        }
+    }
+
+    #[test]
+    fn one_thumbnail_per_occupied_cell_the_rest_as_dots() {
+        // Cells of a 2 × 2 view over [0, 2)²: items 1 and 2 share the top-left cell.
+        let j = job(&[
+            (1, 0.1, 0.1),
+            (2, 0.9, 0.2),
+            (3, 1.5, 0.5),
+            (4, 1.5, 1.5),
+            (5, 5.0, 5.0),
+        ]);
+        let v = view(&j, &q(0.0, 2.0, 0.0, 2.0, 2, 2)).expect("view");
+        assert_eq!((v.total, v.in_view), (5, 4));
+        let ids: Vec<i64> = v.thumbnails.iter().map(|t| t.id.0).collect();
+        assert_eq!(ids, vec![1, 3, 4]);
+        assert_eq!(v.dots, vec![[0.9, 0.2]]);
+        assert_eq!(v.bounds, [0.1, 0.1, 5.0, 5.0]);
+        // One cell: one thumbnail, every other point in view a dot.
+        let v = view(&j, &q(-10.0, 10.0, -10.0, 10.0, 1, 1)).expect("view");
+        assert_eq!((v.thumbnails.len(), v.dots.len()), (1, 4));
+    }
+
+    #[test]
+    fn bad_viewports_are_refused() {
+        let j = job(&[(1, 0.0, 0.0)]);
+        for bad in [
+            q(1.0, 0.0, 0.0, 1.0, 1, 1),
+            q(0.0, 1.0, 0.0, f64::NAN, 1, 1),
+            q(0.0, 1.0, 0.0, 1.0, 0, 1),
+            q(0.0, 1.0, 0.0, 1.0, 50, 41),
+        ] {
+            assert!(matches!(view(&j, &bad), Err(AppError::BadRequest(_))));
+        }
+        let mut taxonomy = j.clone();
+        taxonomy.kind = "taxonomy".into();
+        assert!(matches!(
+            view(&taxonomy, &q(0.0, 1.0, 0.0, 1.0, 1, 1)),
+            Err(AppError::NotFound(_))
+        ));
+    }
+}

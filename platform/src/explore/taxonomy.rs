@@ -271,3 +271,52 @@ pub fn compute(
         representatives,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn counts() -> Vec<LabelCount> {
+        [("dog", 10), ("tree", 3), ("unlabelled", 1)]
+            .iter()
+            .map(|&(label, count)| LabelCount {
+                label: label.into(),
+                count,
+            })
+            .collect()
+    }
+
+    fn params(kappa: usize, tau: usize) -> TaxonomyParams {
+        TaxonomyParams {
+            kappa,
+            tau,
+            ..TaxonomyParams::default()
+        }
+    }
+
+    #[test]
+    fn the_root_decides_whether_anything_survives_pruning() {
+        let labels = vec!["dog".to_owned(), "tree".to_owned()];
+        assert!(check(&counts(), &labels, &params(12, 2)).is_ok());
+        // 13 items: κ = 13 keeps no branch.
+        let e = check(&counts(), &labels, &params(13, 2)).expect_err("κ");
+        assert!(e.to_string().contains("prune every branch"), "{e}");
+        // 3 `tree` items: τ = 3 keeps no branch; the message gives the counts.
+        let e = check(&counts(), &labels, &params(0, 3)).expect_err("τ");
+        assert!(e.to_string().contains("3 of them `tree`"), "{e}");
+        // No labels: κ alone, over every item.
+        assert!(check(&counts(), &[], &params(13, 99)).is_ok());
+    }
+
+    #[test]
+    fn unknown_labels_are_named_with_the_known_ones() {
+        let e = check_labels(&counts(), &["cat".to_owned()]).expect_err("cat");
+        let text = e.to_string();
+        assert!(
+            text.contains("cat not in this library") && text.contains("dog (10)"),
+            "{text}"
+        );
+        let e = check_labels(&counts(), &["unlabelled".to_owned()]).expect_err("one item");
+        assert!(e.to_string().contains("at least 2"), "{e}");
+    }
+}
