@@ -34,6 +34,7 @@ macro_rules! outln {
 
 pub mod cli;
 pub mod error;
+pub mod explore;
 pub mod flow;
 pub mod mashup;
 pub mod search;

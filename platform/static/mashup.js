@@ -430,6 +430,8 @@
   });
 
   bgSelect.value = doc.background;
+  // An item sent from the Explore pages ("Use in mash-up") starts the canvas.
+  if (root.dataset.startItem) add(Number(root.dataset.startItem), 0, canvas.width / 2, canvas.height / 2);
   draw();
   search();
 })();

@@ -12,6 +12,7 @@ mod platform_browser;
 mod platform_cli;
 mod platform_cluster;
 mod platform_consent;
+mod platform_explore;
 mod platform_flow;
 mod platform_mashup;
 mod platform_mashup_browser;

@@ -225,3 +225,15 @@ pub async fn item_cutout(db: &Db, id: ItemId) -> Result<Vec<u8>> {
         None => Ok(r.try_get("png")?),
     }
 }
+
+/// The name of the library of item `id` (404 for an unknown item).
+pub async fn item_library_name(db: &Db, id: ItemId) -> Result<String> {
+    let row = sqlx::query(
+        "SELECT l.name FROM items i JOIN libraries l ON l.id = i.library_id WHERE i.id = $1",
+    )
+    .bind(id.0)
+    .fetch_optional(&db.pool)
+    .await?
+    .ok_or(AppError::NotFound("item"))?;
+    Ok(row.try_get("name")?)
+}

@@ -85,6 +85,10 @@ typed_id!(
     /// A style metric trained from a study's answers.
     ModelId
 );
+typed_id!(
+    /// A stored style exploration (a taxonomy or a style map) and its background job.
+    ExplorationId
+);
 
 typed_id!(
     /// A bonus recorded for a worker's HIT.

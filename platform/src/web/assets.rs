@@ -51,6 +51,16 @@ const ASSETS: &[Asset] = &[
         content_type: "text/javascript; charset=utf-8",
         body: include_bytes!("../../static/mashup_io.js"),
     },
+    Asset {
+        name: "explore.js",
+        content_type: "text/javascript; charset=utf-8",
+        body: include_bytes!("../../static/explore.js"),
+    },
+    Asset {
+        name: "explore_map.js",
+        content_type: "text/javascript; charset=utf-8",
+        body: include_bytes!("../../static/explore_map.js"),
+    },
     // 32×32 PNG in an ICO container: three dots, a triplet, on the links' blue.
     Asset {
         name: "favicon.ico",

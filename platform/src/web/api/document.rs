@@ -10,8 +10,8 @@ use utoipa::openapi::{ContentBuilder, Ref, RefOr, ResponseBuilder};
 use utoipa::{Modify, OpenApi};
 
 use super::{
-    OkBody, admin, compositions, mashup_worker, models, quality, schema, search, settings, worker,
-    workers,
+    OkBody, admin, compositions, explore, mashup_worker, models, quality, schema, search, settings,
+    worker, workers,
 };
 use crate::error::ErrorBody;
 
@@ -50,6 +50,11 @@ use crate::error::ErrorBody;
         models::admin_train,
         search::admin_search,
         search::admin_search_example,
+        explore::admin_start_taxonomy,
+        explore::admin_job,
+        explore::admin_grid,
+        explore::admin_start_map,
+        explore::admin_map_view,
         compositions::create_composition,
         compositions::list_compositions,
         compositions::get_composition,

@@ -22,6 +22,7 @@ use crate::error::ErrorBody;
 mod admin;
 pub mod compositions;
 mod document;
+mod explore;
 mod mashup_worker;
 mod models;
 pub mod quality;
@@ -123,6 +124,20 @@ pub fn routes() -> Router<AppState> {
             get(admin_settings_changes),
         )
         .route("/api/v1/admin/search", get(search::admin_search))
+        .route(
+            "/api/v1/admin/explore/taxonomy",
+            post(explore::admin_start_taxonomy),
+        )
+        .route("/api/v1/admin/explore/map", post(explore::admin_start_map))
+        .route("/api/v1/admin/explore/jobs/{job}", get(explore::admin_job))
+        .route(
+            "/api/v1/admin/explore/jobs/{job}/view",
+            get(explore::admin_map_view),
+        )
+        .route(
+            "/api/v1/admin/explore/jobs/{job}/styles/{style}/grid",
+            get(explore::admin_grid),
+        )
         .merge(workers::routes())
 }
 

@@ -15,6 +15,7 @@ use crate::AppState;
 use crate::error::AppError;
 use crate::mashup::backgrounds::BACKGROUNDS;
 use crate::search::MAX_NEAR;
+use crate::store::ids::ItemId;
 use crate::studies::library;
 use crate::web::admin::Admin;
 use crate::web::assets;
@@ -28,6 +29,9 @@ pub(super) fn routes() -> Router<AppState> {
 #[derive(Debug, Default, Deserialize)]
 struct MashupForm {
     library: Option<String>,
+    /// An item to start the canvas with (the Explore pages' "Use in mash-up"); its library is
+    /// chosen.
+    item: Option<ItemId>,
 }
 
 /// A background of the drop-down, with its image URL (empty for blank).
@@ -58,6 +62,8 @@ struct MashupPage {
     csrf: String,
     max_near: usize,
     script: String,
+    /// The item placed on the canvas when the page opens (empty: none).
+    start_item: String,
 }
 
 impl MashupPage {
@@ -77,8 +83,12 @@ async fn mashup_page(
             let admin = admin?;
             let ApiQuery(form) = form?;
             let names = library::library_names(&state.db).await?;
-            let chosen = form
-                .library
+            let item_library = match form.item {
+                Some(id) => Some(crate::mashup::store::item_library_name(&state.db, id).await?),
+                None => None,
+            };
+            let chosen = item_library
+                .or(form.library)
                 .filter(|l| names.contains(l))
                 .or_else(|| names.first().cloned())
                 .unwrap_or_default();
@@ -89,6 +99,7 @@ async fn mashup_page(
                 csrf: admin.csrf,
                 max_near: MAX_NEAR,
                 script: assets::url("mashup.js"),
+                start_item: form.item.map(|i| i.to_string()).unwrap_or_default(),
             })
         }
         .await,

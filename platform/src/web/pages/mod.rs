@@ -16,6 +16,7 @@ use crate::studies::library;
 use crate::web::extract::ApiPath;
 
 mod admin_session;
+mod explore;
 mod mashup;
 mod models;
 mod new_study;
@@ -39,6 +40,7 @@ pub fn routes() -> Router<AppState> {
         .merge(study_page::routes())
         .merge(models::routes())
         .merge(search::routes())
+        .merge(explore::routes())
         .merge(mashup::routes())
         .merge(new_study::routes())
 }
