@@ -62,7 +62,7 @@ pub(super) async fn style_map(
     let (status, started) = start_map(map_body.clone()).await;
     assert_eq!(status, 202, "{started}");
     let map_id = started["id"].as_i64().expect("id");
-    let job = wait_done(&c, &base, &cookie, map_id).await;
+    let job = wait_done(c, base, cookie, map_id).await;
     assert_eq!(job["status"], "done", "{job}");
     let (status, again) = start_map(map_body).await;
     assert_eq!(
