@@ -14,6 +14,9 @@ use super::{import, wait_done};
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn explore_in_chromium() {
     let profile = tempfile::tempdir().expect("profile dir");
+    // Screenshots for a person to look at, as in platform_browser.rs.
+    let artifacts = e2e::workspace_root().join("target/e2e-artifacts/platform-explore");
+    std::fs::create_dir_all(&artifacts).expect("artifacts dir");
     let Some((driver, c)) = browser(profile.path(), Viewport::Desktop).await else {
         return;
     };
@@ -100,6 +103,7 @@ async fn explore_in_chromium() {
         .expect("cells")
         .len();
     assert!(cells >= 1);
+    shot(&c, &artifacts, "01-branch-grid.png").await;
 
     // A small grid hides images behind its nodes: one opens in a pop-up.
     let href = if href.starts_with("http") {
@@ -129,6 +133,7 @@ async fn explore_in_chromium() {
         .await
         .expect("dialog state");
     assert_eq!(open, json!(true), "the pop-up is open");
+    shot(&c, &artifacts, "02-hidden-images.png").await;
     let images = c
         .find_all(Locator::Css(&format!("#{hidden} img")))
         .await
@@ -235,6 +240,8 @@ async fn explore_in_chromium() {
         zoomed[0], first[0],
         "the thumbnails drawn changed: {first} → {zoomed}"
     );
+
+    shot(&c, &artifacts, "03-map-zoomed.png").await;
 
     let violations = csp_violations(&c, &driver).await;
     assert!(violations.is_empty(), "{violations:?}");
