@@ -217,10 +217,12 @@ async fn explore_in_chromium() {
     let href = attr(&c, "#map-mashup", "href").await;
     assert!(href.contains("/admin/mashup?item="), "{href}");
 
+    // Zoom in on that thumbnail: it stays under the cursor, so the view keeps drawing it.
     c.execute(
         "const m = document.getElementById('map'), r = m.getBoundingClientRect();\
-         for (let i = 0; i < 2; i++) m.dispatchEvent(new WheelEvent('wheel', {deltaY: -400, clientX: r.left + r.width / 2, clientY: r.top + r.height / 2, bubbles: true, cancelable: true}));",
-        vec![],
+         const x = r.left + Number(arguments[0]) * r.width / m.width, y = r.top + Number(arguments[1]) * r.height / m.height;\
+         for (let i = 0; i < 2; i++) m.dispatchEvent(new WheelEvent('wheel', {deltaY: -400, clientX: x, clientY: y, bubbles: true, cancelable: true}));",
+        vec![json!(sx), json!(sy)],
     )
     .await
     .expect("zoom");
@@ -239,6 +241,10 @@ async fn explore_in_chromium() {
     assert_ne!(
         zoomed[0], first[0],
         "the thumbnails drawn changed: {first} → {zoomed}"
+    );
+    assert!(
+        zoomed[0].as_f64() >= Some(1.0),
+        "the zoomed view still draws the thumbnail under the cursor: {zoomed}"
     );
 
     shot(&c, &artifacts, "03-map-zoomed.png").await;
