@@ -8,6 +8,7 @@ use std::io::Read;
 use std::path::Path;
 
 use crate::search::StyleMatrix;
+use crate::search::index::LANES;
 use crate::table::{FeatureTable, csv_error, from_csv_error, open, record_line};
 use crate::{Error, Result};
 
@@ -167,6 +168,17 @@ impl StyleLibrary {
     /// Label names (the requested ones in the order given, else every label sorted).
     pub fn label_names(&self) -> &[String] {
         &self.label_names
+    }
+
+    /// The rows of `items`, each zero-padded to a multiple of the scan kernel's [`LANES`] (the
+    /// layout `search::kmeans` needs), and that stride.
+    pub(crate) fn padded_rows(&self, items: &[usize]) -> (Vec<f32>, usize) {
+        let stride = self.dim.div_ceil(LANES) * LANES;
+        let mut rows = vec![0.0f32; items.len() * stride];
+        for (k, &i) in items.iter().enumerate() {
+            rows[k * stride..k * stride + self.dim].copy_from_slice(self.row(i));
+        }
+        (rows, stride)
     }
 
     /// The items `keep` (indices into this library) as a library of their own.

@@ -3,7 +3,6 @@
 //! category in the paper), so that every style of every category has a point.
 
 use crate::explore::library::StyleLibrary;
-use crate::search::index::LANES;
 use crate::search::kmeans::kmeans;
 use crate::{Error, Result};
 
@@ -24,8 +23,6 @@ pub fn representatives_per_label(
             reason: "a map keeps between 1 and 65,535 representatives per label",
         });
     }
-    let dim = library.dim();
-    let stride = dim.div_ceil(LANES) * LANES;
     let mut by_label: Vec<Vec<usize>> = vec![Vec::new(); library.label_names().len()];
     for (i, &l) in library.labels().iter().enumerate() {
         by_label[l as usize].push(i);
@@ -36,10 +33,7 @@ pub fn representatives_per_label(
             out.extend_from_slice(items);
             continue;
         }
-        let mut rows = vec![0.0f32; items.len() * stride];
-        for (k, &i) in items.iter().enumerate() {
-            rows[k * stride..k * stride + dim].copy_from_slice(library.row(i));
-        }
+        let (rows, stride) = library.padded_rows(items);
         let clusters = kmeans(
             &rows,
             stride,

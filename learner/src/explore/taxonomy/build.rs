@@ -9,7 +9,6 @@ use super::tree::FullTree;
 use super::{Reduction, Stage, TaxonNode, Taxonomy, TaxonomyParams};
 use crate::explore::library::StyleLibrary;
 use crate::explore::{Linkage, MAX_POINTS, ward, ward_weighted};
-use crate::search::index::LANES;
 use crate::search::kmeans::kmeans;
 use crate::{Error, Result};
 
@@ -136,20 +135,9 @@ fn reduce_then_ward(
     progress: &mut dyn FnMut(Stage, usize, usize),
 ) -> Result<(Linkage, Vec<Vec<usize>>, Option<Reduction>)> {
     let dim = library.dim();
-    let stride = dim.div_ceil(LANES) * LANES;
-    let padded: Vec<f32> = if stride == dim {
-        library.points().to_vec()
-    } else {
-        library
-            .points()
-            .chunks_exact(dim)
-            .flat_map(|row| {
-                row.iter()
-                    .copied()
-                    .chain(std::iter::repeat_n(0.0, stride - dim))
-            })
-            .collect()
-    };
+    let all: Vec<usize> = (0..library.len()).collect();
+    let (padded, stride) = library.padded_rows(&all);
+    drop(all);
     let iterations = params.kmeans_iterations;
     progress(Stage::KMeans, 0, iterations);
     let clusters = kmeans(

@@ -24,8 +24,50 @@ pub(super) fn number(name: &str, value: Option<&str>) -> Result<Option<usize>> {
     }
 }
 
-/// The form posts repeated `labels` fields (checkboxes), which serde's form decoding cannot
+/// The Explore form as posted: one form with both buttons, so either handler receives every
+/// field. It posts repeated `labels` fields (checkboxes), which serde's form decoding cannot
 /// gather, so it is read pair by pair.
+#[derive(Default)]
+struct ExploreForm {
+    csrf: Option<String>,
+    library: String,
+    model: Option<String>,
+    labels: Vec<String>,
+    kappa: Option<String>,
+    tau: Option<String>,
+    per_label: Option<String>,
+    perplexity: Option<String>,
+}
+
+impl ExploreForm {
+    /// Reads the body, refusing a field the form does not have; then checks the CSRF token.
+    fn parse(body: &[u8], admin: &Admin) -> Result<Self> {
+        let mut form = Self::default();
+        for (k, v) in form_urlencoded::parse(body) {
+            let v = v.into_owned();
+            match k.as_ref() {
+                "csrf" => form.csrf = Some(v),
+                "library" => form.library = v,
+                "model" => form.model = Some(v),
+                "labels" => form.labels.push(v),
+                "kappa" => form.kappa = Some(v),
+                "tau" => form.tau = Some(v),
+                "per_label" => form.per_label = Some(v),
+                "perplexity" => form.perplexity = Some(v),
+                other => {
+                    return Err(AppError::BadRequest(format!(
+                        "unknown field {:?}",
+                        other.chars().take(40).collect::<String>()
+                    )));
+                }
+            }
+        }
+        admin.check_csrf(form.csrf.as_deref())?;
+        Ok(form)
+    }
+}
+
+/// The taxonomy form: library, model, labels, κ and τ.
 pub(super) async fn build_taxonomy(
     State(state): State<AppState>,
     admin: std::result::Result<Admin, AppError>,
@@ -33,30 +75,14 @@ pub(super) async fn build_taxonomy(
 ) -> Response {
     page(
         async {
-            let admin = admin?;
-            let mut req = TaxonomyRequest::default();
-            let (mut csrf, mut kappa, mut tau) = (None, None, None);
-            for (k, v) in form_urlencoded::parse(&body) {
-                match k.as_ref() {
-                    "csrf" => csrf = Some(v.into_owned()),
-                    "library" => req.library = v.into_owned(),
-                    "model" => req.model = Some(v.into_owned()),
-                    "labels" => req.labels.push(v.into_owned()),
-                    "kappa" => kappa = Some(v.into_owned()),
-                    "tau" => tau = Some(v.into_owned()),
-                    // The map's fields: one form has both buttons.
-                    "per_label" | "perplexity" => {}
-                    other => {
-                        return Err(AppError::BadRequest(format!(
-                            "unknown field {:?}",
-                            other.chars().take(40).collect::<String>()
-                        )));
-                    }
-                }
-            }
-            admin.check_csrf(csrf.as_deref())?;
-            req.kappa = number("κ", kappa.as_deref())?;
-            req.tau = number("τ", tau.as_deref())?;
+            let form = ExploreForm::parse(&body, &admin?)?;
+            let req = TaxonomyRequest {
+                kappa: number("κ", form.kappa.as_deref())?,
+                tau: number("τ", form.tau.as_deref())?,
+                library: form.library,
+                model: form.model,
+                labels: form.labels,
+            };
             let (id, _) = taxonomy::start(&state, &req).await?;
             Ok(Redirect::to(&format!("/admin/explore/jobs/{id}")).into_response())
         }
@@ -73,30 +99,8 @@ pub(super) async fn build_map(
 ) -> Response {
     page(
         async {
-            let admin = admin?;
-            let mut req = MapRequest::default();
-            let (mut csrf, mut per_label, mut perplexity) = (None, None, None);
-            for (k, v) in form_urlencoded::parse(&body) {
-                match k.as_ref() {
-                    "csrf" => csrf = Some(v.into_owned()),
-                    "library" => req.library = v.into_owned(),
-                    "model" => req.model = Some(v.into_owned()),
-                    "labels" => req.labels.push(v.into_owned()),
-                    "per_label" => per_label = Some(v.into_owned()),
-                    "perplexity" => perplexity = Some(v.into_owned()),
-                    // The taxonomy's fields: one form has both buttons.
-                    "kappa" | "tau" => {}
-                    other => {
-                        return Err(AppError::BadRequest(format!(
-                            "unknown field {:?}",
-                            other.chars().take(40).collect::<String>()
-                        )));
-                    }
-                }
-            }
-            admin.check_csrf(csrf.as_deref())?;
-            req.per_label = number("representatives per label", per_label.as_deref())?;
-            req.perplexity = match perplexity.as_deref().map(str::trim) {
+            let form = ExploreForm::parse(&body, &admin?)?;
+            let perplexity = match form.perplexity.as_deref().map(str::trim) {
                 None | Some("") => None,
                 Some(v) => Some(v.parse().map_err(|_| {
                     AppError::BadRequest(format!(
@@ -104,6 +108,13 @@ pub(super) async fn build_map(
                         v.chars().take(40).collect::<String>()
                     ))
                 })?),
+            };
+            let req = MapRequest {
+                per_label: number("representatives per label", form.per_label.as_deref())?,
+                perplexity,
+                library: form.library,
+                model: form.model,
+                labels: form.labels,
             };
             let (id, _) = map::start(&state, &req).await?;
             Ok(Redirect::to(&format!("/admin/explore/jobs/{id}")).into_response())
