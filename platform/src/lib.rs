@@ -66,6 +66,8 @@ pub struct AppState {
     pub settings: Arc<ServerSettings>,
     /// Built style-search indexes (a cache; rebuilt from the database when missing).
     pub search: Arc<search::IndexCache>,
+    /// Finished style maps this server has parsed (a cache; maps never change once done).
+    pub explore_maps: Arc<explore::map::MapCache>,
 }
 
 impl AppState {
@@ -84,6 +86,7 @@ impl AppState {
                 max_body_bytes,
             }),
             search: Arc::default(),
+            explore_maps: Arc::default(),
         }
     }
 }

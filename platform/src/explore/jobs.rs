@@ -91,6 +91,8 @@ pub struct Job {
     pub result: Option<serde_json::Value>,
 }
 
+/// The job of row `r`; its result only if the query selected the `result` column (the pages
+/// that list jobs or show a map's progress never parse a 200,000-point result).
 fn job_of(r: &sqlx::any::AnyRow, now: i64) -> Result<Job> {
     let mut status: String = r.try_get("status")?;
     let mut error: Option<String> = r.try_get("error")?;
@@ -119,23 +121,42 @@ fn job_of(r: &sqlx::any::AnyRow, now: i64) -> Result<Job> {
         error,
         created_at: r.try_get("created_at")?,
         finished_at: r.try_get("finished_at")?,
-        result: parse(r.try_get("result")?)?,
+        result: match r.try_get::<Option<String>, _>("result") {
+            Ok(text) => parse(text)?,
+            Err(sqlx::Error::ColumnNotFound(_)) => None,
+            Err(e) => return Err(e.into()),
+        },
     })
 }
 
-/// The columns [`job_of`] reads (a macro so that the queries stay literal strings).
-macro_rules! columns {
+/// The columns [`job_of`] reads but the result (a macro so that the queries stay literal
+/// strings).
+macro_rules! status_columns {
     () => {
         "id, library_id, model_id, kind, params, status, stage, progress_done, progress_total, \
-         error, created_at, finished_at, heartbeat_at, result"
+         error, created_at, finished_at, heartbeat_at"
     };
 }
 
-/// The stored exploration `id`.
+/// The stored exploration `id` with its result.
 pub async fn load(db: &Db, id: ExplorationId) -> Result<Job> {
     let row = sqlx::query(concat!(
         "SELECT ",
-        columns!(),
+        status_columns!(),
+        ", result FROM explorations WHERE id = $1"
+    ))
+    .bind(id.0)
+    .fetch_optional(&db.pool)
+    .await?
+    .ok_or(AppError::NotFound("exploration"))?;
+    job_of(&row, now_ms())
+}
+
+/// The stored exploration `id` without its result (`result` is `None`).
+pub async fn load_status(db: &Db, id: ExplorationId) -> Result<Job> {
+    let row = sqlx::query(concat!(
+        "SELECT ",
+        status_columns!(),
         " FROM explorations WHERE id = $1"
     ))
     .bind(id.0)
@@ -145,12 +166,12 @@ pub async fn load(db: &Db, id: ExplorationId) -> Result<Job> {
     job_of(&row, now_ms())
 }
 
-/// The latest explorations of a library, newest first.
+/// The latest explorations of a library, newest first, without their results.
 pub async fn recent(db: &Db, library: LibraryId, kind: Kind, limit: i64) -> Result<Vec<Job>> {
     let now = now_ms();
     sqlx::query(concat!(
         "SELECT ",
-        columns!(),
+        status_columns!(),
         " FROM explorations WHERE library_id = $1 AND kind = $2 \
          ORDER BY created_at DESC, id DESC LIMIT $3"
     ))

@@ -116,6 +116,6 @@ pub(super) async fn admin_map_view(
     ApiPath(id): ApiPath<ExplorationId>,
     ApiQuery(q): ApiQuery<ViewQuery>,
 ) -> Result<Json<MapView>> {
-    let job = jobs::load(&state.db, id).await?;
-    Ok(Json(map::view(&job, &q)?))
+    let index = state.explore_maps.get(&state.db, id).await?;
+    Ok(Json(index.view(&q)?))
 }

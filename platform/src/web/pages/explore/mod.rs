@@ -245,7 +245,11 @@ async fn job_page(
         async {
             admin?;
             let ApiPath(id) = id?;
-            let job = jobs::load(&state.db, id).await?;
+            // A map's points are drawn through its view API, never parsed for this page.
+            let mut job = jobs::load_status(&state.db, id).await?;
+            if job.kind != "map" && job.status == "done" {
+                job = jobs::load(&state.db, id).await?;
+            }
             let library = source::library_name(&state.db, job.library).await?;
             let mut p = JobPage {
                 id,
