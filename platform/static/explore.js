@@ -36,6 +36,20 @@
     window.setTimeout(poll, 300);
   }
 
+  // Any image with data-drag-item (a grid node's shown or hidden image, the map's picked
+  // thumbnail) can be dragged onto a mash-up canvas open in another window or tab
+  // (mashup.js): the item and its library as application/x-stylekit-item, the canvas link
+  // with the item as text/uri-list (dropped on the address bar, it opens that canvas).
+  document.addEventListener("dragstart", function (e) {
+    const el = e.target instanceof Element ? e.target.closest("[data-drag-item]") : null;
+    if (!el || !e.dataTransfer) return;
+    const item = Number(el.dataset.dragItem);
+    e.dataTransfer.setData("application/x-stylekit-item",
+      JSON.stringify({ item: item, library: el.dataset.library || "" }));
+    e.dataTransfer.setData("text/uri-list", new URL("/admin/mashup?item=" + item, window.location.href).href);
+    e.dataTransfer.effectAllowed = "copy";
+  });
+
   for (const cell of document.querySelectorAll(".explore-cell.has-hidden")) {
     cell.addEventListener("click", function () {
       const dialog = document.getElementById(cell.dataset.dialog);

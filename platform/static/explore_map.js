@@ -117,6 +117,10 @@
     img.width = 64;
     img.height = 64;
     img.alt = "item " + hit.id;
+    img.draggable = true;
+    img.dataset.dragItem = String(hit.id);
+    img.dataset.library = canvas.dataset.library || "";
+    img.title = "Drag onto a mash-up canvas";
     const a = document.createElement("a");
     a.id = "map-mashup";
     a.href = "/admin/mashup?item=" + hit.id;

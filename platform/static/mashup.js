@@ -27,6 +27,9 @@
 //                    does not say how results are ordered (the worker's condition is blind)
 //   data-submit-url  optional: POST {document} submits the composition (#mashup-submit); on
 //                    success the page goes to data-done-url
+// Items dragged from the Explore pages (explore.js) drop onto the canvas (not on a worker's
+// task): application/x-stylekit-item {"item": ID, "library": NAME}; another library's item is
+// refused with a message.
 // The page's state is exposed for tests and the host page: the root's data-document (the JSON
 // document), data-selected (the selected piece's index or -1), data-search-seq, data-logged
 // (events posted and answered), and on the
@@ -428,6 +431,37 @@
     },
     clearCanvas: () => change(() => { doc.pieces = []; selected = -1; }),
   });
+
+  // ---- items dragged from the Explore pages (explore.js), in another window or tab ----
+  // Not on a worker's task: a worker composes from the assignment's own searches only.
+  const ITEM_TYPE = "application/x-stylekit-item";
+  if (!cfg.worker) {
+    canvas.addEventListener("dragover", (e) => {
+      if (e.dataTransfer && Array.from(e.dataTransfer.types).includes(ITEM_TYPE)) {
+        e.preventDefault();
+        e.dataTransfer.dropEffect = "copy";
+      }
+    });
+    canvas.addEventListener("drop", (e) => {
+      const raw = e.dataTransfer ? e.dataTransfer.getData(ITEM_TYPE) : "";
+      if (!raw) return;
+      e.preventDefault();
+      let d = null;
+      try { d = JSON.parse(raw); } catch (_) { d = null; }
+      if (!d || !Number.isSafeInteger(d.item) || d.item <= 0) {
+        showError("What was dropped is not an item of a library.");
+        return;
+      }
+      if (d.library !== cfg.library) {
+        showError("Item " + d.item + " is in the library \u201c" + d.library + "\u201d; this canvas composes \u201c" +
+          cfg.library + "\u201d. Choose that library first.");
+        return;
+      }
+      showError("");
+      const [x, y] = toCanvas(e);
+      add(d.item, 0, x, y);
+    });
+  }
 
   bgSelect.value = doc.background;
   // An item sent from the Explore pages ("Use in mash-up") starts the canvas.

@@ -1,6 +1,9 @@
 //! The Explore pages in Chromium: build a taxonomy from the page, open a branch and a
-//! hidden-image pop-up, follow the mash-up link, click and zoom the style map, with no CSP
-//! violation.
+//! hidden-image pop-up, follow the mash-up link, drag a hidden image onto the mash-up canvas,
+//! click and zoom the style map, with no CSP violation.
+//!
+//! WebDriver cannot drive a native HTML5 drag between pages, so the drags are the browser's own
+//! `DragEvent`s dispatched with a `DataTransfer`: the pages' real handlers set and read it.
 
 use std::time::Duration;
 
@@ -140,6 +143,26 @@ async fn explore_in_chromium() {
         .expect("hidden images")
         .len();
     assert!(images >= 1);
+    // Dragging a hidden image carries its item, its library and the canvas link.
+    let dragged = c
+        .execute(
+            "const img = document.querySelector('#' + arguments[0] + ' img'), dt = new DataTransfer();\
+             img.dispatchEvent(new DragEvent('dragstart', {dataTransfer: dt, bubbles: true, cancelable: true}));\
+             return [img.dataset.dragItem, dt.getData('application/x-stylekit-item'), dt.getData('text/uri-list')];",
+            vec![json!(hidden)],
+        )
+        .await
+        .expect("drag a hidden image");
+    let hidden_item: i64 = dragged[0].as_str().expect("id").parse().expect("item id");
+    let payload: Value = serde_json::from_str(dragged[1].as_str().expect("drag data"))
+        .expect("the drag data is JSON");
+    assert_eq!(payload, json!({"item": hidden_item, "library": "clipart"}));
+    assert!(
+        dragged[2]
+            .as_str()
+            .is_some_and(|u| u.ends_with(&format!("/admin/mashup?item={hidden_item}"))),
+        "{dragged}"
+    );
 
     // "Use in mash-up" opens the canvas with that item placed on it.
     let link = attr(&c, ".use-mashup", "href").await;
@@ -171,6 +194,45 @@ async fn explore_in_chromium() {
     }
     assert_eq!(pieces.as_array().map(Vec::len), Some(1), "{pieces}");
     assert_eq!(pieces[0]["item"], json!(item));
+
+    // The hidden image dropped on the canvas joins it where it was dropped; an item of another
+    // library is refused with a message and the canvas stays as it was.
+    let drop = "const m = document.getElementById('mashup-canvas'), r = m.getBoundingClientRect();\
+        const dt = new DataTransfer(); dt.setData('application/x-stylekit-item', arguments[0]);\
+        const at = {dataTransfer: dt, bubbles: true, cancelable: true, clientX: r.left + r.width / 4, clientY: r.top + r.height / 4};\
+        const accepted = !m.dispatchEvent(new DragEvent('dragover', at));\
+        m.dispatchEvent(new DragEvent('drop', at));\
+        const e = document.getElementById('mashup-error');\
+        return [accepted, JSON.parse(document.getElementById('mashup').dataset.document).pieces, e.hidden ? '' : e.textContent];";
+    let other = json!({"item": hidden_item, "library": "another"}).to_string();
+    let refused = c.execute(drop, vec![json!(other)]).await.expect("drop");
+    assert_eq!(refused[1].as_array().map(Vec::len), Some(1), "{refused}");
+    assert!(
+        refused[2].as_str().is_some_and(|e| e.contains("another")),
+        "{refused}"
+    );
+    let dropped = c
+        .execute(drop, vec![json!(payload.to_string())])
+        .await
+        .expect("drop");
+    assert_eq!(
+        dropped[0],
+        json!(true),
+        "the canvas accepts the drag: {dropped}"
+    );
+    assert_eq!(dropped[2], json!(""), "the error is gone: {dropped}");
+    let pieces = dropped[1].as_array().expect("pieces");
+    assert_eq!(pieces.len(), 2, "{dropped}");
+    assert_eq!(pieces[1]["item"], json!(hidden_item));
+    let width: f64 = attr(&c, "#mashup-canvas", "width")
+        .await
+        .parse()
+        .expect("width");
+    let x = pieces[1]["x"].as_f64().expect("x");
+    assert!(
+        (x - width / 4.0).abs() <= 1.0,
+        "dropped at a quarter: {x} of {width}"
+    );
 
     // The style map: zooming in changes what is drawn (fewer items in view).
     let http = client();
@@ -216,6 +278,22 @@ async fn explore_in_chromium() {
     .expect("click a thumbnail");
     let href = attr(&c, "#map-mashup", "href").await;
     assert!(href.contains("/admin/mashup?item="), "{href}");
+    // The picked thumbnail drags like a grid image.
+    let dragged = c
+        .execute(
+            "const img = document.querySelector('#map-selected img'), dt = new DataTransfer();\
+             img.dispatchEvent(new DragEvent('dragstart', {dataTransfer: dt, bubbles: true, cancelable: true}));\
+             return dt.getData('application/x-stylekit-item');",
+            vec![],
+        )
+        .await
+        .expect("drag the picked thumbnail");
+    let payload: Value = serde_json::from_str(dragged.as_str().expect("drag data")).expect("JSON");
+    assert_eq!(payload["library"], json!("clipart"));
+    assert!(
+        href.ends_with(&format!("item={}", payload["item"])),
+        "{href} {payload}"
+    );
 
     // Zoom in on that thumbnail: it stays under the cursor, so the view keeps drawing it.
     c.execute(

@@ -22,8 +22,8 @@ struct GridCell {
     thumbnail: Option<String>,
     /// The shown item's id.
     item: String,
-    /// The hidden images.
-    hidden: Vec<String>,
+    /// The hidden images: (item id, image).
+    hidden: Vec<(String, String)>,
     /// The pop-up's id.
     dialog: String,
 }
@@ -32,6 +32,8 @@ struct GridCell {
 #[template(path = "explore_grid.html")]
 struct GridPage {
     job: ExplorationId,
+    /// The library's name (the items' drag data carry it).
+    library: String,
     style: usize,
     grid: Option<BranchGrid>,
     /// The nodes, by row.
@@ -77,7 +79,7 @@ pub(super) async fn grid_page(
                 .map(|(k, c)| GridCell {
                     thumbnail: c.shown.as_ref().map(image),
                     item: c.shown.map(|i| i.to_string()).unwrap_or_default(),
-                    hidden: c.hidden.iter().map(image).collect(),
+                    hidden: c.hidden.iter().map(|h| (h.to_string(), image(h))).collect(),
                     dialog: format!("hidden-{k}"),
                 })
                 .collect::<Vec<_>>();
@@ -93,8 +95,10 @@ pub(super) async fn grid_page(
             }
             let shown = |v: Option<usize>| v.map(|v| v.to_string()).unwrap_or_default();
             let failed = error.is_some();
+            let library = crate::search::source::library_name(&state.db, job.library).await?;
             let mut response = render(&GridPage {
                 job: id,
+                library,
                 style,
                 rows: grid
                     .as_ref()
