@@ -15,7 +15,7 @@ use fantoccini::{Client, Locator};
 use serde_json::{Value, json};
 
 /// Asserts that the page fits the screen: the document is no wider than the viewport.
-async fn assert_fits(c: &Client, page: &str) {
+pub(crate) async fn assert_fits(c: &Client, page: &str) {
     let v = c
         .execute(
             "const w = document.documentElement.clientWidth; \
@@ -67,7 +67,7 @@ async fn assert_on_screen(c: &Client, css: &str) {
     );
 }
 
-async fn click(c: &Client, css: &str) {
+pub(crate) async fn click(c: &Client, css: &str) {
     mark(c).await;
     c.find(Locator::Css(css))
         .await

@@ -15,6 +15,7 @@ use serde_json::{Value, json};
 
 mod browser;
 mod map;
+mod phone;
 
 both_databases!(explore_a_library, explore_sqlite, explore_postgres);
 
