@@ -194,6 +194,32 @@ pub fn save(path: impl AsRef<Path>, img: &Image, enc: Encoding, depth: Depth) ->
     }
 }
 
+/// Writes a 1- or 3-channel image as a 32-bit float RGB TIFF: linear, unclipped, unscaled (a
+/// 1-channel image is written as three equal channels: the `image` crate's TIFF writer, and
+/// [`load_rgb`], handle floating-point colour only). Non-finite values are refused.
+pub fn save_float_tiff(path: impl AsRef<Path>, img: &Image) -> Result<()> {
+    let path = path.as_ref();
+    let (w, h) = img.dims();
+    let data: Vec<f32> = match img.channels() {
+        3 => img.data().to_vec(),
+        1 => img.data().iter().flat_map(|&v| [v, v, v]).collect(),
+        c => return Err(Error::param("channels", c, "must be 1 or 3 to save")),
+    };
+    if let Some(i) = data.iter().position(|v| !v.is_finite()) {
+        let p = (i / 3) as u32;
+        return Err(Error::NonFinite {
+            x: p % w.max(1),
+            y: p / w.max(1),
+        });
+    }
+    match ImageBuffer::<Rgb<f32>, _>::from_raw(w, h, data) {
+        Some(b) => DynamicImage::ImageRgb32F(b)
+            .save_with_format(path, image::ImageFormat::Tiff)
+            .map_err(|e| codec(path, e)),
+        None => Err(codec(path, "buffer size does not match dimensions")),
+    }
+}
+
 /// Writes 8-bit sRGB colours given as bytes (false-colour maps, plots) to a PNG file.
 pub fn save_rgb8(path: impl AsRef<Path>, width: u32, height: u32, rgb: Vec<u8>) -> Result<()> {
     let path = path.as_ref();

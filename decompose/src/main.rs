@@ -99,7 +99,8 @@ struct ImageArgs {
     /// Bits per sample of reflectance.png and shading.png.
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u8).range(8..=16))]
     depth: u8,
-    /// Write linear values instead of display gamma (sRGB).
+    /// Write linear values instead of display gamma (sRGB), and also reflectance.tiff and
+    /// shading.tiff: 32-bit float, unclipped and unscaled, so that their product is the input.
     #[arg(long)]
     linear_output: bool,
     /// No progress bar.
@@ -400,6 +401,13 @@ fn run_image(a: ImageArgs) -> Result<()> {
         enc,
         depth,
     )?;
+    // The PNGs clip the brightest 0.5% of reflectance values (the decomposition's scale puts
+    // its 99.5th percentile at 1) and scale the shading to its maximum; the float TIFFs keep
+    // every value, so reflectance.tiff × shading.tiff = the linear input inside the mask.
+    if a.linear_output {
+        io::save_float_tiff(a.out_dir.join("reflectance.tiff"), &d.reflectance)?;
+        io::save_float_tiff(a.out_dir.join("shading.tiff"), &d.shading)?;
+    }
     if let Some(c) = &run.clusters {
         io::save_rgb8(
             a.out_dir.join("clusters.png"),

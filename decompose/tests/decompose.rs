@@ -397,6 +397,53 @@ mod cli {
         assert!(matches!(r, image::DynamicImage::ImageRgb16(_)));
     }
 
+    /// `--linear-output` also writes float TIFFs that keep what the PNGs clip: their product
+    /// is the linear input, and reflectance above the PNG's range survives.
+    #[test]
+    fn linear_output_writes_unclipped_float_tiffs_whose_product_is_the_input() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = write_scene(dir.path());
+        let out = dir.path().join("o");
+        let st = bin()
+            .args(["image", "-q", "--linear-output", "--out-dir"])
+            .arg(&out)
+            .arg(&input)
+            .status()
+            .unwrap();
+        assert!(st.success());
+        let linear = decompose::io::LoadOptions::default();
+        let i = decompose::io::load_rgb(&input, linear).unwrap();
+        let r = decompose::io::load_rgb(out.join("reflectance.tiff"), linear).unwrap();
+        let s = decompose::io::load_rgb(out.join("shading.tiff"), linear).unwrap();
+        let r_png = decompose::io::load_rgb(
+            out.join("reflectance.png"),
+            decompose::io::LoadOptions {
+                linear: true,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let floor = i.max() * 1e-3;
+        let mut worst = 0.0f32;
+        for p in 0..i.len() {
+            for c in 0..3 {
+                let v = i.rgb(p)[c];
+                if v > floor {
+                    let rel = (r.rgb(p)[c] * s.rgb(p)[c] - v).abs() / v;
+                    worst = worst.max(rel);
+                }
+            }
+            assert_eq!(s.rgb(p)[0], s.rgb(p)[2], "shading is grey");
+        }
+        assert!(worst < 1e-4, "R × S differs from the input by {worst}");
+        assert!(
+            r.max() > 1.0,
+            "the brightest reflectance is kept: {}",
+            r.max()
+        );
+        assert!(r_png.max() <= 1.0 && r.max() > r_png.max() + 1e-3);
+    }
+
     #[test]
     fn bad_input_exits_with_a_message() {
         let dir = tempfile::tempdir().unwrap();
