@@ -1,0 +1,146 @@
+//! Leave-one-object-out cross-validation of the clustering method's parameters on an MIT-style
+//! folder (issue 19): for each object, the setting with the lowest mean LMSE on the *other*
+//! objects is chosen from a grid and scored on the held-out one. Prints, per object, the
+//! in-sample score of the defaults, the setting chosen without it and its held-out score, then
+//! the means: the cross-validated figure is the one to compare with other methods.
+//!
+//! `cargo run --release -p decompose --example mit_cv -- ../shared/data/mit-intrinsic-dev`
+//!
+//! The grid spans the parameters that were tuned on these objects (`k`, `bridge_ratio`,
+//! `border_skip`, `border_weight_exponent`); the thesis' own parameters keep their values.
+
+use rayon::prelude::*;
+
+use decompose::clustering::{self, ClusteringParams};
+use decompose::io::{self, LoadOptions};
+use decompose::metrics;
+
+type Object = (
+    String,
+    decompose::image::Image,
+    decompose::image::Image,
+    decompose::image::Image,
+    decompose::image::Mask,
+);
+
+fn load(dir: &str) -> Result<Vec<Object>, Box<dyn std::error::Error>> {
+    let lin = LoadOptions {
+        linear: true,
+        ..Default::default()
+    };
+    let mut objects = Vec::new();
+    for e in std::fs::read_dir(dir)? {
+        let p = e?.path();
+        if p.join("reflectance.png").exists() {
+            objects.push((
+                p.file_name()
+                    .unwrap_or_default()
+                    .to_string_lossy()
+                    .into_owned(),
+                io::load_rgb(p.join("diffuse.png"), lin)?,
+                io::load_rgb(p.join("reflectance.png"), lin)?,
+                io::load_gray(p.join("shading.png"), lin)?,
+                io::load_mask(p.join("mask.png"))?,
+            ));
+        }
+    }
+    objects.sort_by(|a, b| a.0.cmp(&b.0));
+    Ok(objects)
+}
+
+fn grid() -> Vec<(String, ClusteringParams)> {
+    let base = ClusteringParams::default();
+    let mut out = Vec::new();
+    for k in [5, 10, 20] {
+        for bridge_ratio in [0.0, 0.6, 0.8, 1.0] {
+            for border_skip in [0, 1, 2, 3] {
+                for border_weight_exponent in [0.0, 0.5] {
+                    out.push((
+                        format!(
+                            "k={k} bridge={bridge_ratio} skip={border_skip} w^{border_weight_exponent}"
+                        ),
+                        ClusteringParams {
+                            k,
+                            bridge_ratio,
+                            border_skip,
+                            border_weight_exponent,
+                            ..base.clone()
+                        },
+                    ));
+                }
+            }
+        }
+    }
+    out
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let dir = std::env::args()
+        .nth(1)
+        .ok_or("usage: mit_cv DIR (an MIT-style folder: one folder per object)")?;
+    let objects = load(&dir)?;
+    if objects.len() < 3 {
+        return Err(format!("{dir}: need at least 3 objects, found {}", objects.len()).into());
+    }
+    let settings = grid();
+    let defaults = ClusteringParams::default();
+    eprintln!("{} settings × {} objects …", settings.len(), objects.len());
+    // scores[s][o]: LMSE of setting s on object o.
+    let score = |p: &ClusteringParams, o: &Object| -> Result<f64, String> {
+        let out =
+            clustering::decompose(&o.1, Some(&o.4), p, &mut |_| {}).map_err(|e| e.to_string())?;
+        let d = &out.decomposition;
+        Ok(metrics::score(&d.reflectance, &d.shading, &o.2, &o.3, &o.4)
+            .map_err(|e| e.to_string())?
+            .lmse)
+    };
+    let scores: Vec<Vec<f64>> = settings
+        .par_iter()
+        .map(|(_, p)| objects.iter().map(|o| score(p, o)).collect())
+        .collect::<Result<_, _>>()?;
+    let default_scores: Vec<f64> = objects
+        .iter()
+        .map(|o| score(&defaults, o))
+        .collect::<Result<_, _>>()?;
+    let n = objects.len();
+    let mean_without = |s: usize, held: usize| -> f64 {
+        (0..n)
+            .filter(|&o| o != held)
+            .map(|o| scores[s][o])
+            .sum::<f64>()
+            / (n - 1) as f64
+    };
+    println!(
+        "{:<10} {:>10} {:>10}  chosen without it",
+        "object", "defaults", "held-out"
+    );
+    let (mut sum_cv, mut sum_in) = (0.0, 0.0);
+    for held in 0..n {
+        let best = (0..settings.len())
+            .min_by(|&a, &b| mean_without(a, held).total_cmp(&mean_without(b, held)))
+            .unwrap_or(0);
+        sum_cv += scores[best][held];
+        sum_in += default_scores[held];
+        println!(
+            "{:<10} {:>10.5} {:>10.5}  {}",
+            objects[held].0, default_scores[held], scores[best][held], settings[best].0
+        );
+    }
+    let best_in = (0..settings.len())
+        .min_by(|&a, &b| {
+            let m = |s: usize| scores[s].iter().sum::<f64>();
+            m(a).total_cmp(&m(b))
+        })
+        .unwrap_or(0);
+    println!(
+        "mean       {:>10.5} {:>10.5}  (defaults in-sample; leave-one-object-out)",
+        sum_in / n as f64,
+        sum_cv / n as f64
+    );
+    println!(
+        "best setting in-sample: {} mean {:.5}",
+        settings[best_in].0,
+        scores[best_in].iter().sum::<f64>() / n as f64
+    );
+    Ok(())
+}
