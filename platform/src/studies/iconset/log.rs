@@ -1,0 +1,560 @@
+//! The icon-set study's log (migration 0019): each assignment's condition and every event with
+//! the server's time. What the worker asks ([`Action`]) is checked against the tray replayed
+//! from the log inside the same write transaction, so two requests of one worker cannot both
+//! fill a slot, and the time per set is measured here — set 1 starts when the worker first
+//! opens the task, set k + 1 when set k is finished — never taken from the client.
+
+use serde::{Deserialize, Serialize};
+use sqlx::Row;
+use utoipa::ToSchema;
+
+use super::{Condition, IconsetSettings};
+use crate::error::{AppError, Result};
+use crate::store::db::{Db, now_ms};
+use crate::store::ids::{AssignmentId, ItemId, LibraryId, StudyId};
+use crate::studies::mashup::condition_at;
+use crate::studies::mashup::log::{Locked, lock_row};
+
+/// What a worker does to the tray.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize, ToSchema)]
+#[serde(tag = "event", rename_all = "lowercase", deny_unknown_fields)]
+pub enum Action {
+    /// Puts an icon into the current set, in the slot of its label (which must be empty).
+    Add {
+        /// The icon (an item of the study's library with one of the study's labels).
+        item: ItemId,
+    },
+    /// Takes the icon out of the slot `label` of the current set (a deletion).
+    Remove {
+        /// The slot's label.
+        #[schema(max_length = 200)]
+        label: String,
+    },
+    /// Finishes the current set (every slot filled); the next set starts.
+    Finish,
+}
+
+/// A stored event's kind.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// The worker first opened the task: set 1 starts.
+    Open,
+    /// A search answered (condition B).
+    Search,
+    /// An icon put into a slot.
+    Add,
+    /// An icon taken out of a slot.
+    Remove,
+    /// A set finished.
+    Finish,
+}
+
+impl Kind {
+    /// As stored in `iconset_events.event`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Open => "open",
+            Self::Search => "search",
+            Self::Add => "add",
+            Self::Remove => "remove",
+            Self::Finish => "finish",
+        }
+    }
+
+    fn from_stored(s: &str) -> Result<Self> {
+        [
+            Self::Open,
+            Self::Search,
+            Self::Add,
+            Self::Remove,
+            Self::Finish,
+        ]
+        .into_iter()
+        .find(|k| k.as_str() == s)
+        .ok_or_else(|| AppError::Internal(format!("iconset_events: unknown event {s:?}")))
+    }
+}
+
+/// A stored event.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Logged {
+    /// Its kind.
+    pub kind: Kind,
+    /// The set it belongs to, from 1.
+    pub set: usize,
+    /// The slot's label (add, remove).
+    pub label: Option<String>,
+    /// The icon (add, remove).
+    pub item: Option<ItemId>,
+    /// Server time, Unix ms.
+    pub at: i64,
+}
+
+/// One set of the tray, as the log says.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, ToSchema)]
+pub struct SetState {
+    /// Its number, from 1.
+    pub index: usize,
+    /// The icon in each slot, in the order of the study's labels.
+    pub slots: Vec<Option<ItemId>>,
+    /// When it started (Unix ms; `None`: not yet).
+    pub started_at: Option<i64>,
+    /// When it was finished (Unix ms; `None`: not yet).
+    pub finished_at: Option<i64>,
+    /// Icons removed from it.
+    pub deletions: usize,
+    /// Searches made while it was the current set.
+    pub searches: usize,
+}
+
+impl SetState {
+    /// Whether every slot holds an icon.
+    pub fn full(&self) -> bool {
+        self.slots.iter().all(Option::is_some)
+    }
+
+    /// Milliseconds from its start to its end, when finished.
+    pub fn duration_ms(&self) -> Option<i64> {
+        Some(self.finished_at? - self.started_at?)
+    }
+}
+
+/// The tray of sets.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, ToSchema)]
+pub struct Tray {
+    /// The sets, in order.
+    pub sets: Vec<SetState>,
+}
+
+impl Tray {
+    /// The index (0-based) of the set being made: the first not finished; `None` when every
+    /// set is finished.
+    pub fn current(&self) -> Option<usize> {
+        self.sets.iter().position(|s| s.finished_at.is_none())
+    }
+
+    /// The set (1-based) holding `item`, if any.
+    pub fn holding(&self, item: ItemId) -> Option<usize> {
+        self.sets
+            .iter()
+            .find(|s| s.slots.contains(&Some(item)))
+            .map(|s| s.index)
+    }
+}
+
+/// Replays `events` into a tray of `sets` sets of `labels`' slots.
+pub fn replay(labels: &[String], sets: u32, events: &[Logged]) -> Tray {
+    let mut tray = Tray {
+        sets: (1..=sets as usize)
+            .map(|index| SetState {
+                index,
+                slots: vec![None; labels.len()],
+                started_at: None,
+                finished_at: None,
+                deletions: 0,
+                searches: 0,
+            })
+            .collect(),
+    };
+    for e in events {
+        let Some(set) = tray.sets.get_mut(e.set.wrapping_sub(1)) else {
+            continue;
+        };
+        let slot = e
+            .label
+            .as_ref()
+            .and_then(|l| labels.iter().position(|x| x == l));
+        match e.kind {
+            Kind::Open => {
+                set.started_at.get_or_insert(e.at);
+            }
+            Kind::Search => set.searches += 1,
+            Kind::Add => {
+                if let Some(s) = slot {
+                    set.slots[s] = e.item;
+                }
+            }
+            Kind::Remove => {
+                if let Some(s) = slot {
+                    set.slots[s] = None;
+                }
+                set.deletions += 1;
+            }
+            Kind::Finish => {
+                set.finished_at = Some(e.at);
+                if let Some(next) = tray.sets.get_mut(e.set) {
+                    next.started_at = Some(e.at);
+                }
+            }
+        }
+    }
+    tray
+}
+
+/// Checks `action` against `tray` (the item's label already looked up as `item_label`);
+/// returns the event to store.
+pub fn check(
+    settings: &IconsetSettings,
+    tray: &Tray,
+    action: &Action,
+    item_label: Option<&str>,
+) -> Result<Logged> {
+    let Some(current) = tray.current() else {
+        return Err(AppError::Conflict(
+            "every set is finished: submit the tray".into(),
+        ));
+    };
+    let set = &tray.sets[current];
+    let at = now_ms();
+    match action {
+        Action::Add { item } => {
+            let label = item_label.unwrap_or_default();
+            let Some(slot) = settings.slot(label) else {
+                return Err(AppError::BadRequest(format!(
+                    "item {item} is labelled {label:?}, not one of this task's labels ({})",
+                    settings.labels.join(", ")
+                )));
+            };
+            if let Some(other) = tray.holding(*item) {
+                return Err(AppError::BadRequest(format!(
+                    "item {item} is already in set {other}: each icon goes into one set"
+                )));
+            }
+            if set.slots[slot].is_some() {
+                return Err(AppError::BadRequest(format!(
+                    "the {label} of set {} is chosen: remove it first",
+                    set.index
+                )));
+            }
+            Ok(Logged {
+                kind: Kind::Add,
+                set: set.index,
+                label: Some(label.to_owned()),
+                item: Some(*item),
+                at,
+            })
+        }
+        Action::Remove { label } => {
+            let Some(slot) = settings.slot(label) else {
+                return Err(AppError::BadRequest(format!(
+                    "label: {:?} is not one of this task's labels ({})",
+                    label.chars().take(40).collect::<String>(),
+                    settings.labels.join(", ")
+                )));
+            };
+            let Some(item) = set.slots[slot] else {
+                return Err(AppError::BadRequest(format!(
+                    "the {label} of set {} is empty: nothing to remove",
+                    set.index
+                )));
+            };
+            Ok(Logged {
+                kind: Kind::Remove,
+                set: set.index,
+                label: Some(label.clone()),
+                item: Some(item),
+                at,
+            })
+        }
+        Action::Finish => {
+            if !set.full() {
+                let missing: Vec<&str> = settings
+                    .labels
+                    .iter()
+                    .zip(&set.slots)
+                    .filter(|(_, s)| s.is_none())
+                    .map(|(l, _)| l.as_str())
+                    .collect();
+                return Err(AppError::BadRequest(format!(
+                    "set {} still needs: {}",
+                    set.index,
+                    missing.join(", ")
+                )));
+            }
+            Ok(Logged {
+                kind: Kind::Finish,
+                set: set.index,
+                label: None,
+                item: None,
+                at,
+            })
+        }
+    }
+}
+
+async fn read(conn: &mut sqlx::AnyConnection, assignment: AssignmentId) -> Result<Vec<Logged>> {
+    let rows = sqlx::query(
+        "SELECT event, set_index, label, item_id, created_at FROM iconset_events \
+         WHERE assignment_id = $1 ORDER BY seq",
+    )
+    .bind(assignment.0)
+    .fetch_all(&mut *conn)
+    .await?;
+    rows.iter()
+        .map(|r| {
+            Ok(Logged {
+                kind: Kind::from_stored(&r.try_get::<String, _>("event")?)?,
+                set: r.try_get::<i64, _>("set_index")? as usize,
+                label: r.try_get("label")?,
+                item: r.try_get::<Option<i64>, _>("item_id")?.map(ItemId),
+                at: r.try_get("created_at")?,
+            })
+        })
+        .collect()
+}
+
+async fn insert(
+    conn: &mut sqlx::AnyConnection,
+    assignment: AssignmentId,
+    e: &Logged,
+    detail: Option<String>,
+) -> Result<()> {
+    let seq: i64 = sqlx::query(
+        "SELECT COALESCE(MAX(seq), 0) + 1 AS next FROM iconset_events WHERE assignment_id = $1",
+    )
+    .bind(assignment.0)
+    .fetch_one(&mut *conn)
+    .await?
+    .try_get("next")?;
+    sqlx::query(
+        "INSERT INTO iconset_events \
+         (assignment_id, seq, event, set_index, label, item_id, detail, created_at) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+    )
+    .bind(assignment.0)
+    .bind(seq)
+    .bind(e.kind.as_str())
+    .bind(e.set as i64)
+    .bind(e.label.clone())
+    .bind(e.item.map(|i| i.0))
+    .bind(detail)
+    .bind(e.at)
+    .execute(&mut *conn)
+    .await?;
+    Ok(())
+}
+
+/// The events of `assignment`, in order.
+pub async fn events(db: &Db, assignment: AssignmentId) -> Result<Vec<Logged>> {
+    let mut conn = db.pool.acquire().await?;
+    read(&mut conn, assignment).await
+}
+
+/// The tray of `assignment`.
+pub async fn tray(db: &Db, settings: &IconsetSettings, assignment: AssignmentId) -> Result<Tray> {
+    Ok(replay(
+        &settings.labels,
+        settings.sets,
+        &events(db, assignment).await?,
+    ))
+}
+
+/// The condition of `assignment`, if drawn.
+pub async fn condition_of(db: &Db, assignment: AssignmentId) -> Result<Option<Condition>> {
+    let row = sqlx::query("SELECT condition FROM iconset_conditions WHERE assignment_id = $1")
+        .bind(assignment.0)
+        .fetch_optional(&db.pool)
+        .await?;
+    row.map(|r| Condition::from_stored(&r.try_get::<String, _>("condition")?))
+        .transpose()
+}
+
+/// The condition of `assignment`. On the first call it is drawn (the study's next place in
+/// its balanced sequence, [`condition_at`]) and the task's `open` event is logged in the same
+/// transaction: set 1 starts now.
+pub async fn start(
+    db: &Db,
+    study: StudyId,
+    seed: u64,
+    assignment: AssignmentId,
+) -> Result<Condition> {
+    if let Some(c) = condition_of(db, assignment).await? {
+        return Ok(c);
+    }
+    let mut tx = db.begin_write().await?;
+    lock_row(&mut tx, db.backend, Locked::Study, study.0).await?;
+    let existing = sqlx::query("SELECT condition FROM iconset_conditions WHERE assignment_id = $1")
+        .bind(assignment.0)
+        .fetch_optional(&mut *tx)
+        .await?;
+    if let Some(r) = existing {
+        return Condition::from_stored(&r.try_get::<String, _>("condition")?);
+    }
+    let next: i64 = sqlx::query(
+        "SELECT COALESCE(MAX(seq) + 1, 0) AS next FROM iconset_conditions WHERE study_id = $1",
+    )
+    .bind(study.0)
+    .fetch_one(&mut *tx)
+    .await?
+    .try_get("next")?;
+    let condition = condition_at(seed, next as u64);
+    sqlx::query(
+        "INSERT INTO iconset_conditions (assignment_id, study_id, seq, condition) \
+         VALUES ($1, $2, $3, $4)",
+    )
+    .bind(assignment.0)
+    .bind(study.0)
+    .bind(next)
+    .bind(condition.as_str())
+    .execute(&mut *tx)
+    .await?;
+    let open = Logged {
+        kind: Kind::Open,
+        set: 1,
+        label: None,
+        item: None,
+        at: now_ms(),
+    };
+    insert(&mut tx, assignment, &open, None).await?;
+    tx.commit().await?;
+    Ok(condition)
+}
+
+/// The label of `item` if it is an item of `library` (`None`: unlabelled); a 400 otherwise.
+async fn item_label(db: &Db, library: LibraryId, item: ItemId) -> Result<Option<String>> {
+    let row = sqlx::query("SELECT style FROM items WHERE id = $1 AND library_id = $2")
+        .bind(item.0)
+        .bind(library.0)
+        .fetch_optional(&db.pool)
+        .await?
+        .ok_or_else(|| {
+            AppError::BadRequest(format!("item {item} is not an item of the study's library"))
+        })?;
+    Ok(row.try_get("style")?)
+}
+
+/// Checks `action` against the logged tray and logs it; returns the tray after it.
+pub async fn act(
+    db: &Db,
+    library: LibraryId,
+    settings: &IconsetSettings,
+    assignment: AssignmentId,
+    action: &Action,
+) -> Result<Tray> {
+    let label = match action {
+        Action::Add { item } => item_label(db, library, *item).await?,
+        _ => None,
+    };
+    let mut tx = db.begin_write().await?;
+    lock_row(&mut tx, db.backend, Locked::Assignment, assignment.0).await?;
+    let mut events = read(&mut tx, assignment).await?;
+    let tray = replay(&settings.labels, settings.sets, &events);
+    let event = check(settings, &tray, action, label.as_deref())?;
+    insert(&mut tx, assignment, &event, None).await?;
+    tx.commit().await?;
+    events.push(event);
+    Ok(replay(&settings.labels, settings.sets, &events))
+}
+
+/// Logs a search answered for `assignment` (its keywords, label and the item ids returned, in
+/// order), counted in the current set.
+pub async fn record_search(
+    db: &Db,
+    settings: &IconsetSettings,
+    assignment: AssignmentId,
+    q: &str,
+    label: &str,
+    results: &[ItemId],
+) -> Result<()> {
+    let detail = serde_json::json!({"q": q, "label": label, "results": results}).to_string();
+    let mut tx = db.begin_write().await?;
+    lock_row(&mut tx, db.backend, Locked::Assignment, assignment.0).await?;
+    let events = read(&mut tx, assignment).await?;
+    let tray = replay(&settings.labels, settings.sets, &events);
+    let set = tray.current().map_or(settings.sets as usize, |c| c + 1);
+    let e = Logged {
+        kind: Kind::Search,
+        set,
+        label: Some(label.to_owned()),
+        item: None,
+        at: now_ms(),
+    };
+    insert(&mut tx, assignment, &e, Some(detail)).await?;
+    tx.commit().await?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings() -> IconsetSettings {
+        IconsetSettings {
+            labels: vec!["fish".into(), "bird".into()],
+            sets: 2,
+            ..IconsetSettings::default()
+        }
+    }
+
+    fn ev(kind: Kind, set: usize, label: Option<&str>, item: Option<i64>, at: i64) -> Logged {
+        Logged {
+            kind,
+            set,
+            label: label.map(str::to_owned),
+            item: item.map(ItemId),
+            at,
+        }
+    }
+
+    #[test]
+    fn replay_times_sets_from_the_open_and_each_finish_and_counts_deletions() {
+        let s = settings();
+        let log = [
+            ev(Kind::Open, 1, None, None, 1_000),
+            ev(Kind::Add, 1, Some("fish"), Some(10), 2_000),
+            ev(Kind::Add, 1, Some("bird"), Some(11), 3_000),
+            ev(Kind::Remove, 1, Some("bird"), Some(11), 4_000),
+            ev(Kind::Add, 1, Some("bird"), Some(12), 5_000),
+            ev(Kind::Finish, 1, None, None, 6_500),
+            ev(Kind::Search, 2, Some("fish"), None, 7_000),
+            ev(Kind::Add, 2, Some("fish"), Some(20), 8_000),
+        ];
+        let t = replay(&s.labels, s.sets, &log);
+        assert_eq!(t.current(), Some(1));
+        assert_eq!(t.sets[0].slots, vec![Some(ItemId(10)), Some(ItemId(12))]);
+        assert_eq!(
+            (t.sets[0].duration_ms(), t.sets[0].deletions),
+            (Some(5_500), 1)
+        );
+        assert_eq!(t.sets[1].started_at, Some(6_500));
+        assert_eq!((t.sets[1].searches, t.sets[1].duration_ms()), (1, None));
+        assert_eq!(t.holding(ItemId(10)), Some(1));
+        assert_eq!(t.holding(ItemId(11)), None);
+
+        // What may happen next.
+        let add = |item| Action::Add { item: ItemId(item) };
+        assert!(check(&s, &t, &add(10), Some("fish")).is_err(), "in set 1");
+        assert!(check(&s, &t, &add(21), Some("fish")).is_err(), "slot taken");
+        assert!(
+            check(&s, &t, &add(21), Some("face")).is_err(),
+            "not a label"
+        );
+        assert!(check(&s, &t, &add(21), None).is_err(), "unlabelled");
+        assert!(
+            check(&s, &t, &Action::Finish, None).is_err(),
+            "bird missing"
+        );
+        let remove = |l: &str| Action::Remove { label: l.into() };
+        assert!(check(&s, &t, &remove("bird"), None).is_err(), "empty slot");
+        assert!(check(&s, &t, &remove("cat"), None).is_err(), "no such slot");
+        let e = check(&s, &t, &add(21), Some("bird")).unwrap();
+        assert_eq!((e.kind, e.set, e.item), (Kind::Add, 2, Some(ItemId(21))));
+        let e = check(&s, &t, &remove("fish"), None).unwrap();
+        assert_eq!((e.kind, e.item), (Kind::Remove, Some(ItemId(20))));
+    }
+
+    #[test]
+    fn nothing_is_accepted_after_the_last_set() {
+        let s = settings();
+        let mut log = vec![ev(Kind::Open, 1, None, None, 0)];
+        for set in 1..=2 {
+            log.push(ev(Kind::Add, set, Some("fish"), Some(set as i64), 1));
+            log.push(ev(Kind::Add, set, Some("bird"), Some(10 + set as i64), 2));
+            log.push(ev(Kind::Finish, set, None, None, 3));
+        }
+        let t = replay(&s.labels, s.sets, &log);
+        assert_eq!(t.current(), None);
+        let e = check(&s, &t, &Action::Finish, None).unwrap_err();
+        assert!(matches!(e, AppError::Conflict(_)), "{e:?}");
+    }
+}
