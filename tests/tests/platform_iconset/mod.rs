@@ -164,6 +164,48 @@ pub(super) async fn sets_from_events(db_url: &str) -> HashMap<String, Vec<(f64, 
         .collect()
 }
 
+/// The library's items in the search's style space under uniform weights, built here with
+/// `learner` from the stored features.
+struct UniformSpace {
+    matrix: learner::search::StyleMatrix,
+    rows: HashMap<String, usize>,
+}
+
+impl UniformSpace {
+    /// The mean distance between two of the named items.
+    fn spread(&self, names: &[&str]) -> f64 {
+        let rows: Vec<usize> = names.iter().map(|n| self.rows[*n]).collect();
+        let (mut sum, mut pairs) = (0.0, 0);
+        for (k, &a) in rows.iter().enumerate() {
+            for &b in &rows[k + 1..] {
+                sum += self.matrix.distance_to(a, self.matrix.row(b));
+                pairs += 1;
+            }
+        }
+        sum / pairs as f64
+    }
+}
+
+async fn uniform_space(db_url: &str) -> UniformSpace {
+    use sqlx::Row;
+    let stored = rows(db_url, "SELECT name, features FROM items ORDER BY seq").await;
+    let columns: Vec<String> = learner::features::catalogue()
+        .into_iter()
+        .map(|f| f.name.to_string())
+        .collect();
+    let (mut names, mut values) = (Vec::new(), Vec::new());
+    for r in &stored {
+        names.push(r.get::<String, _>("name"));
+        let f: Vec<f64> = serde_json::from_str(&r.get::<String, _>("features")).expect("json");
+        values.extend(f);
+    }
+    let table = learner::table::FeatureTable::new(columns, names.clone(), values).expect("table");
+    let weighting = learner::search::Weighting::uniform(&table);
+    let matrix = learner::search::StyleMatrix::build(&table, &weighting).expect("matrix");
+    let rows = names.into_iter().enumerate().map(|(i, n)| (n, i)).collect();
+    UniformSpace { matrix, rows }
+}
+
 fn ids(list: &Value) -> Vec<i64> {
     list["results"]
         .as_array()
@@ -563,6 +605,26 @@ async fn iconset_study(db: TestDb) {
     let col = |name: &str| header.iter().position(|h| h == name).expect(name);
     let records: Vec<csv::StringRecord> = reader.records().map(|r| r.expect("row")).collect();
     assert_eq!(records.len(), 4, "{text}");
+    // The style spread: the mean distance of eq. 5.5 between two icons of a set, recomputed
+    // here with learner's uniform weighting over the stored features.
+    let space = uniform_space(&db.url).await;
+    let mut spreads: HashMap<String, Vec<f64>> = HashMap::new();
+    for rec in &records {
+        let names: Vec<&str> = rec[col("items")].split(';').collect();
+        let want = space.spread(&names);
+        let got: f64 = rec[col("spread")].parse().expect("spread");
+        assert!((got - want).abs() < 1e-9 * want.max(1.0), "{got} vs {want}");
+        spreads
+            .entry(rec[col("condition")].to_string())
+            .or_default()
+            .push(want);
+    }
+    for r in report["conditions"].as_array().unwrap() {
+        let values = &spreads[r["condition"].as_str().unwrap()];
+        let want = learner::stats::mean_interval(values, 0.95).expect("interval");
+        let got = r["spread_per_set"]["mean"].as_f64().expect("spread mean");
+        assert!((got - want.mean).abs() < 1e-9, "{r}");
+    }
     for rec in &records {
         let condition = &rec[col("condition")];
         let token = if condition == "A" { &wa } else { &wb };

@@ -221,7 +221,7 @@ pub(super) const REPORT: Table = Table {
              answers, chose_a, rate; for a mash-up study per condition workers, pieces, \
              searches and position_mean, position_half_width, position_low, position_high, \
              position_sd; for an icon-set study confidence and per condition workers, sets and \
-             seconds_per_set_, deletions_per_set_ and searches_per_set_ mean, half_width, low, \
+             seconds_per_set_, deletions_per_set_, searches_per_set_ and spread_per_set_ mean, half_width, low, \
              high, sd",
         ),
         number(

@@ -39,6 +39,11 @@ pub(super) const SETS: Table = Table {
         ),
         number("deletions", "icons removed from the set"),
         number("searches", "searches made while the set was being made"),
+        number(
+            "spread",
+            "the set's style spread: the mean style distance d (eq. 5.5, the study's model) \
+             between two of its icons, measured when it was finished",
+        ),
         text(
             "labels",
             "the set's slots, in order, separated by ';' (the study's labels)",
@@ -86,6 +91,7 @@ pub(super) async fn rows(
             r.seconds.to_string(),
             r.deletions.to_string(),
             r.searches.to_string(),
+            r.spread.map(|v| v.to_string()).unwrap_or_default(),
             labels.clone(),
             r.items
                 .iter()

@@ -101,6 +101,7 @@ pub(super) fn rows(report: &StudyReport) -> Vec<Vec<String>> {
                     ("seconds_per_set", &c.seconds_per_set),
                     ("deletions_per_set", &c.deletions_per_set),
                     ("searches_per_set", &c.searches_per_set),
+                    ("spread_per_set", &c.spread_per_set),
                 ] {
                     let m = m.as_ref();
                     for (name, v) in [

@@ -10,6 +10,7 @@ use utoipa::ToSchema;
 
 use super::{Condition, IconsetSettings};
 use crate::error::{AppError, Result};
+use crate::search::cache::Built;
 use crate::store::db::{Db, now_ms};
 use crate::store::ids::{AssignmentId, ItemId, LibraryId, StudyId};
 use crate::studies::mashup::condition_at;
@@ -76,7 +77,7 @@ impl Kind {
 }
 
 /// A stored event.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Logged {
     /// Its kind.
     pub kind: Kind,
@@ -88,10 +89,12 @@ pub struct Logged {
     pub item: Option<ItemId>,
     /// Server time, Unix ms.
     pub at: i64,
+    /// finish: the set's style spread ([`spread`]), when its icons are in the index.
+    pub spread: Option<f64>,
 }
 
 /// One set of the tray, as the log says.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
 pub struct SetState {
     /// Its number, from 1.
     pub index: usize,
@@ -105,6 +108,9 @@ pub struct SetState {
     pub deletions: usize,
     /// Searches made while it was the current set.
     pub searches: usize,
+    /// Its style spread when it was finished: the mean style distance `d` (Garces et al. 2014
+    /// eq. 5.5, under the study's model) between two of its icons ([`spread`]).
+    pub spread: Option<f64>,
 }
 
 impl SetState {
@@ -120,7 +126,7 @@ impl SetState {
 }
 
 /// The tray of sets.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
 pub struct Tray {
     /// The sets, in order.
     pub sets: Vec<SetState>,
@@ -153,6 +159,7 @@ pub fn replay(labels: &[String], sets: u32, events: &[Logged]) -> Tray {
                 finished_at: None,
                 deletions: 0,
                 searches: 0,
+                spread: None,
             })
             .collect(),
     };
@@ -182,6 +189,7 @@ pub fn replay(labels: &[String], sets: u32, events: &[Logged]) -> Tray {
             }
             Kind::Finish => {
                 set.finished_at = Some(e.at);
+                set.spread = e.spread;
                 if let Some(next) = tray.sets.get_mut(e.set) {
                     next.started_at = Some(e.at);
                 }
@@ -232,6 +240,7 @@ pub fn check(
                 label: Some(label.to_owned()),
                 item: Some(*item),
                 at,
+                spread: None,
             })
         }
         Action::Remove { label } => {
@@ -254,6 +263,7 @@ pub fn check(
                 label: Some(label.clone()),
                 item: Some(item),
                 at,
+                spread: None,
             })
         }
         Action::Finish => {
@@ -277,6 +287,7 @@ pub fn check(
                 label: None,
                 item: None,
                 at,
+                spread: None,
             })
         }
     }
@@ -284,7 +295,7 @@ pub fn check(
 
 async fn read(conn: &mut sqlx::AnyConnection, assignment: AssignmentId) -> Result<Vec<Logged>> {
     let rows = sqlx::query(
-        "SELECT event, set_index, label, item_id, created_at FROM iconset_events \
+        "SELECT event, set_index, label, item_id, detail, created_at FROM iconset_events \
          WHERE assignment_id = $1 ORDER BY seq",
     )
     .bind(assignment.0)
@@ -298,6 +309,10 @@ async fn read(conn: &mut sqlx::AnyConnection, assignment: AssignmentId) -> Resul
                 label: r.try_get("label")?,
                 item: r.try_get::<Option<i64>, _>("item_id")?.map(ItemId),
                 at: r.try_get("created_at")?,
+                spread: r
+                    .try_get::<Option<String>, _>("detail")?
+                    .and_then(|d| serde_json::from_str::<serde_json::Value>(&d).ok())
+                    .and_then(|d| d.get("spread").and_then(serde_json::Value::as_f64)),
             })
         })
         .collect()
@@ -404,6 +419,7 @@ pub async fn start(
         label: None,
         item: None,
         at: now_ms(),
+        spread: None,
     };
     insert(&mut tx, assignment, &open, None).await?;
     tx.commit().await?;
@@ -423,13 +439,16 @@ async fn item_label(db: &Db, library: LibraryId, item: ItemId) -> Result<Option<
     Ok(row.try_get("style")?)
 }
 
-/// Checks `action` against the logged tray and logs it; returns the tray after it.
+/// Checks `action` against the logged tray and logs it; returns the tray after it. A finished
+/// set's [`spread`] is measured in `index` (the search index of the study's library and model)
+/// and stored with the event.
 pub async fn act(
     db: &Db,
     library: LibraryId,
     settings: &IconsetSettings,
     assignment: AssignmentId,
     action: &Action,
+    index: Option<&Built>,
 ) -> Result<Tray> {
     let label = match action {
         Action::Add { item } => item_label(db, library, *item).await?,
@@ -439,11 +458,41 @@ pub async fn act(
     lock_row(&mut tx, db.backend, Locked::Assignment, assignment.0).await?;
     let mut events = read(&mut tx, assignment).await?;
     let tray = replay(&settings.labels, settings.sets, &events);
-    let event = check(settings, &tray, action, label.as_deref())?;
-    insert(&mut tx, assignment, &event, None).await?;
+    let mut event = check(settings, &tray, action, label.as_deref())?;
+    let mut detail = None;
+    if event.kind == Kind::Finish
+        && let (Some(built), Some(c)) = (index, tray.current())
+    {
+        let items: Vec<ItemId> = tray.sets[c].slots.iter().flatten().copied().collect();
+        event.spread = spread(built, &items);
+        detail = event
+            .spread
+            .map(|s| serde_json::json!({ "spread": s }).to_string());
+    }
+    insert(&mut tx, assignment, &event, detail).await?;
     tx.commit().await?;
     events.push(event);
     Ok(replay(&settings.labels, settings.sets, &events))
+}
+
+/// The style spread of a set: the mean style distance `d` (Garces et al. 2014 eq. 5.5: the
+/// Euclidean distance between rows of `√w ⊙ x̂`, the search's distance) over every pair of its
+/// icons, in `built`'s space; `None` with fewer than two icons or an icon not in the index. A
+/// set "in one style" has a small spread; the report compares it between conditions.
+pub fn spread(built: &Built, items: &[ItemId]) -> Option<f64> {
+    let rows: Vec<usize> = items
+        .iter()
+        .map(|&i| built.row_of(i))
+        .collect::<Option<_>>()?;
+    let matrix = built.index.matrix();
+    let (mut sum, mut pairs) = (0.0, 0usize);
+    for (k, &a) in rows.iter().enumerate() {
+        for &b in &rows[k + 1..] {
+            sum += matrix.distance_to(a, matrix.row(b));
+            pairs += 1;
+        }
+    }
+    (pairs > 0).then(|| sum / pairs as f64)
 }
 
 /// Logs a search answered for `assignment` (its keywords, label and the item ids returned, in
@@ -468,6 +517,7 @@ pub async fn record_search(
         label: Some(label.to_owned()),
         item: None,
         at: now_ms(),
+        spread: None,
     };
     insert(&mut tx, assignment, &e, Some(detail)).await?;
     tx.commit().await?;
@@ -493,6 +543,7 @@ mod tests {
             label: label.map(str::to_owned),
             item: item.map(ItemId),
             at,
+            spread: None,
         }
     }
 

@@ -3,7 +3,9 @@
 //! degrees of freedom (`learner::stats::mean_interval`), n being the sets made in that
 //! condition (pooled over workers). The thesis: 79 ± 20 s per set with the explorer (A) and
 //! 108 ± 27 s with the search (B); 0.6 and 2.8 deletions per set. Only completed HITs that are
-//! not rejected count; a set's time runs from its start (the task opened, or the previous set
+//! not rejected count. Beside them, each condition's mean style spread of a set (the mean
+//! style distance between two of its icons, measured when it was finished), a check that the
+//! sets are "in one style". A set's time runs from its start (the task opened, or the previous set
 //! finished) to its finish, both times taken by the server.
 
 use serde::Serialize;
@@ -40,6 +42,8 @@ pub struct SetRow {
     pub searches: usize,
     /// Its icons, in the order of the study's labels.
     pub items: Vec<ItemId>,
+    /// Its style spread (`log::spread`), when measured.
+    pub spread: Option<f64>,
 }
 
 /// A mean with its 95% t interval.
@@ -72,6 +76,10 @@ pub struct ConditionReport {
     pub deletions_per_set: Option<MeanStats>,
     /// Searches per set (absent with fewer than two sets).
     pub searches_per_set: Option<MeanStats>,
+    /// The style spread of a set (the mean style distance between two of its icons, under
+    /// the study's model): a check that the sets are "in one style" (absent with fewer than
+    /// two sets measured).
+    pub spread_per_set: Option<MeanStats>,
 }
 
 /// The report of an icon-set study: condition A then B.
@@ -114,6 +122,7 @@ pub fn summarise(rows: &[SetRow]) -> Result<IconsetReport> {
             seconds_per_set: stats(&of(|r| r.seconds))?,
             deletions_per_set: stats(&of(|r| r.deletions as f64))?,
             searches_per_set: stats(&of(|r| r.searches as f64))?,
+            spread_per_set: stats(&mine.iter().filter_map(|r| r.spread).collect::<Vec<f64>>())?,
         });
     }
     Ok(IconsetReport {
@@ -161,6 +170,7 @@ pub async fn set_rows(db: &Db, study: &Study, all: bool) -> Result<Vec<SetRow>> 
                 deletions: s.deletions,
                 searches: s.searches,
                 items: s.slots.iter().flatten().copied().collect(),
+                spread: s.spread,
             });
         }
     }
@@ -196,6 +206,7 @@ mod tests {
             deletions,
             searches: 0,
             items: Vec::new(),
+            spread: None,
         }
     }
 

@@ -4,6 +4,8 @@
 //! their condition; the task says which of the two interfaces the page shows. The worker page
 //! (`crate::web::pages::worker::iconset`) calls the same functions.
 
+use std::sync::Arc;
+
 use axum::Json;
 use axum::extract::State;
 use serde::{Deserialize, Serialize};
@@ -12,6 +14,7 @@ use utoipa::ToSchema;
 use crate::AppState;
 use crate::error::{AppError, ErrorBody, Result};
 use crate::flow::{self, AnswerRequest, Assignment, AssignmentState};
+use crate::search::cache::{Built, Key};
 use crate::search::{self, SearchRequest};
 use crate::store::ids::ItemId;
 use crate::studies::iconset::explorer::{self, Explorer};
@@ -210,6 +213,23 @@ pub(crate) async fn load_explorer(state: &AppState, a: &Assignment, s: &Study) -
     explorer::load(&state.db, s.id).await
 }
 
+/// The study's search index when `action` finishes a set (its spread is measured in it).
+pub(crate) async fn index_for(
+    state: &AppState,
+    s: &Study,
+    settings: &IconsetSettings,
+    action: &Action,
+) -> Result<Option<Arc<Built>>> {
+    if *action != Action::Finish {
+        return Ok(None);
+    }
+    let key = Key {
+        library: s.library,
+        model: settings.model,
+    };
+    Ok(Some(state.search.get(&state.db, key).await?))
+}
+
 /// Completes the HIT after every set is finished, through the shared answer path (QC,
 /// completion code, MTurk/Prolific hand-back).
 pub(crate) async fn submit_tray(
@@ -324,8 +344,9 @@ pub(super) async fn iconset_event(
     let (a, s, i) = iconset_of(&state, &token).await?;
     active(&a)?;
     condition(&state, &a, &s).await?;
+    let index = index_for(&state, &s, &i, &action).await?;
     Ok(Json(
-        log::act(&state.db, s.library, &i, a.id, &action).await?,
+        log::act(&state.db, s.library, &i, a.id, &action, index.as_deref()).await?,
     ))
 }
 

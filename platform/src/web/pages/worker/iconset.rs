@@ -19,7 +19,7 @@ use crate::studies::iconset::log::{self, Action};
 use crate::studies::iconset::{Condition, IconsetSettings};
 use crate::studies::study::Study;
 use crate::web::api::iconset_worker::{
-    Icon, condition, iconset_of, load_explorer, run_search, submit_tray,
+    Icon, condition, iconset_of, index_for, load_explorer, run_search, submit_tray,
 };
 use crate::web::extract::{ApiForm, ApiPath};
 use crate::web::pages::{page, render};
@@ -326,7 +326,16 @@ async fn act(
         )));
     }
     condition(state, a, s).await?;
-    log::act(&state.db, s.library, settings, a.id, action).await?;
+    let index = index_for(state, s, settings, action).await?;
+    log::act(
+        &state.db,
+        s.library,
+        settings,
+        a.id,
+        action,
+        index.as_deref(),
+    )
+    .await?;
     Ok(())
 }
 
