@@ -12,7 +12,9 @@ use e2e::platform::*;
 use fantoccini::{Client, Locator};
 use serde_json::Value;
 
-use super::{GOOD, conditions, create, created, import_icons, labels, sets_from_events};
+use super::support::{
+    GOOD, conditions, create, created, import_icons, labels, rows, sets_from_events,
+};
 
 const LABELS: [&str; 4] = ["face", "fish", "flower", "bird"];
 
@@ -260,7 +262,7 @@ async fn iconset_hits_in_chromium() {
     both.sort();
     assert_eq!(both, ["A", "B"], "one worker per condition");
     // The stored sets are the icons clicked, in label order; one deletion each.
-    let stored = super::rows(
+    let stored = rows(
         &db.url,
         "SELECT a.token, e.set_index, e.label, e.item_id, e.event FROM iconset_events e \
          JOIN assignments a ON a.id = e.assignment_id ORDER BY e.assignment_id, e.seq",
