@@ -102,6 +102,67 @@ async fn iconset_study(db: TestDb) {
     let c = client();
     let api = |token: &str, path: &str| format!("{base}/api/v1/assignments/{token}/iconset{path}");
 
+    // The browser form: a bad field is shown again with its reason and a 400, nothing stored;
+    // a good one stores the study with its explorer.
+    let (cookie, csrf) = admin_login(&c, base).await;
+    let post = |fields: Vec<(&'static str, &'static str)>| {
+        let mut fields: Vec<(&str, String)> = fields
+            .into_iter()
+            .map(|(k, v)| (k, v.to_string()))
+            .collect();
+        fields.push(("csrf", csrf.clone()));
+        c.post(format!("{base}/admin/studies/new/iconset"))
+            .header("cookie", &cookie)
+            .form(&fields)
+            .send()
+    };
+    let good = vec![
+        ("name", "form icon sets"),
+        ("library", "icons"),
+        ("labels", "face, fish"),
+        ("sets", "3"),
+        ("model", "uniform"),
+        ("kappa", "5"),
+        ("tau", "1"),
+        ("trays", "2"),
+        ("mturk_mode", "sandbox"),
+    ];
+    for (field, value, needle) in [
+        ("labels", "face,cat", "cat not in this library"),
+        (
+            "sets",
+            "three",
+            "Sets: &#34;three&#34; is not a whole number",
+        ),
+        ("sets", "11", "sets: 11 not in 1..=10"),
+        ("tau", "9", "prune every branch"),
+        ("model", "best", "model: a model id or"),
+        ("library", "nope", "library not found"),
+    ] {
+        let mut fields = good.clone();
+        fields.retain(|(k, _)| *k != field);
+        fields.push((field, value));
+        let resp = post(fields).await.expect("post");
+        assert_eq!(resp.status().as_u16(), 400, "{field}={value}");
+        let page = resp.text().await.expect("page");
+        assert!(page.contains(needle), "{field}={value}: {page}");
+    }
+    let studies = |db_url: String| async move {
+        scalar(&db_url, "SELECT CAST(COUNT(*) AS BIGINT) FROM studies").await
+    };
+    assert_eq!(studies(db.url.clone()).await, 1);
+    let resp = post(good.clone()).await.expect("post");
+    assert_eq!(resp.status().as_u16(), 303);
+    assert_eq!(studies(db.url.clone()).await, 2);
+    assert_eq!(
+        scalar(
+            &db.url,
+            "SELECT CAST(COUNT(*) AS BIGINT) FROM iconset_explorers"
+        )
+        .await,
+        2
+    );
+
     // Three workers open the task: balanced conditions, nothing names them.
     let mut tokens = Vec::new();
     for w in 0..3 {
