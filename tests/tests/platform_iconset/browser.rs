@@ -237,7 +237,24 @@ async fn iconset_hits_in_chromium() {
                 pick(&c, replacement, dialog.as_deref()).await;
                 used.push(replacement);
             }
+            // The icons already in a set cannot be picked again.
+            let in_sets: Vec<i64> = sets.iter().flatten().copied().collect();
+            let enabled = c
+                .execute(
+                    "return Array.from(document.querySelectorAll('button.iconset-pick')) \
+                       .filter(b => !b.disabled).map(b => Number(b.dataset.item));",
+                    vec![],
+                )
+                .await
+                .expect("enabled picks");
             let shown = current_set(&c).await;
+            for item in enabled.as_array().expect("array") {
+                let item = item.as_i64().expect("item");
+                assert!(
+                    !in_sets.contains(&item) && !shown.values().any(|&i| i == item),
+                    "{item} is in a set but can be picked"
+                );
+            }
             assert_eq!(shown.len(), 4, "{shown:?}");
             sets.push(LABELS.iter().map(|l| shown[*l]).collect::<Vec<i64>>());
             click_to_next(&c, "#iconset-finish").await;

@@ -76,6 +76,15 @@ struct IconsetTaskPage {
     q: String,
     results: Vec<Icon>,
     matched: usize,
+    /// Icons already in a set (each goes into one set only: shown, not pickable).
+    used: Vec<ItemId>,
+}
+
+impl IconsetTaskPage {
+    /// Whether `item` is already in a set.
+    fn is_used(&self, item: &ItemId) -> bool {
+        self.used.contains(item)
+    }
 }
 
 /// What the page shows, from its query string (unknown keys ignored, values checked).
@@ -180,6 +189,11 @@ pub(super) async fn render_task(
         q: view.q.clone().unwrap_or_default(),
         results: Vec::new(),
         matched: 0,
+        used: tray
+            .sets
+            .iter()
+            .flat_map(|s| s.slots.iter().flatten().copied())
+            .collect(),
     };
     if current.is_none() {
         return render(&p);
