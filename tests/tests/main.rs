@@ -14,6 +14,7 @@ mod platform_cluster;
 mod platform_consent;
 mod platform_explore;
 mod platform_flow;
+mod platform_iconset;
 mod platform_mashup;
 mod platform_mashup_browser;
 mod platform_mashup_events;

@@ -66,6 +66,22 @@ fn numbers(report: &Value) -> Vec<(String, String, Option<f64>)> {
                 push_all(&mut out, group, p, "position_", &keys);
             }
         }
+        "iconset" => {
+            push_all(&mut out, "", report, "", &["confidence"]);
+            for c in report["conditions"].as_array().expect("conditions") {
+                let group = c["condition"].as_str().expect("condition");
+                push_all(&mut out, group, c, "", &["workers", "sets"]);
+                let keys = ["mean", "half_width", "low", "high", "sd"];
+                for m in [
+                    "seconds_per_set",
+                    "deletions_per_set",
+                    "searches_per_set",
+                    "spread_per_set",
+                ] {
+                    push_all(&mut out, group, &c[m], &format!("{m}_"), &keys);
+                }
+            }
+        }
         _ => {}
     }
     out

@@ -7,6 +7,7 @@ use clap::Args;
 use super::DbArgs;
 use crate::error::{AppError, Result};
 use crate::store::ids::StudyId;
+use crate::studies::iconset::{self, IconsetSettings};
 use crate::studies::kind::{RatingQuestion, StudyKind};
 use crate::studies::mashup::{self, MashupSettings};
 use crate::studies::study::{self, MturkMode, StudySettings};
@@ -47,7 +48,8 @@ pub struct CreateArgs {
     #[arg(long, value_parser = ["sandbox", "live"])]
     mturk_mode: Option<String>,
     /// Study kind: `triplet` (style triplets), `composition-rating` (2AFC over pairs of
-    /// compositions: needs --from-mashup, or --compositions and --pairs) or `mashup`.
+    /// compositions: needs --from-mashup, or --compositions and --pairs), `mashup` or
+    /// `iconset` (sets of icons in one style, with the explorer or the search).
     #[arg(long, default_value = "triplet")]
     kind: String,
     /// composition-rating: the folder of composition images, imported into --library.
@@ -78,6 +80,24 @@ pub struct CreateArgs {
     /// mashup: searches the worker must make before submitting (default 1).
     #[arg(long)]
     min_searches: Option<u32>,
+    /// iconset: the labels of a set's slots, comma-separated (items' style labels; default
+    /// face,fish,flower,bird).
+    #[arg(long)]
+    labels: Option<String>,
+    /// iconset: sets per HIT, each in another style (default 4).
+    #[arg(long)]
+    sets: Option<u32>,
+    /// iconset: the model ordering the search and shaping the explorer: a model id,
+    /// `uniform`, or by default the newest trained model over the library.
+    #[arg(long)]
+    model: Option<String>,
+    /// iconset: κ of the explorer's taxonomy (a representative style's branch holds more than
+    /// κ items; default 20).
+    #[arg(long)]
+    kappa: Option<usize>,
+    /// iconset: τ of the explorer's taxonomy (more than τ items of every label; default 2).
+    #[arg(long)]
+    tau: Option<usize>,
 }
 
 /// Imports the compositions into the library `lib`, makes the pairs and stores the study.
@@ -105,6 +125,38 @@ async fn rating_pool(
     let pool = rating::draw(&rows, &ids, &s)?;
     s.tuples = u32::try_from(pool.main.len()).unwrap_or(u32::MAX);
     study::begin_drawn(db, name, library, StudyKind::CompositionRating, s, pool).await
+}
+
+/// Checks an icon-set study's settings against the library, computes condition A's explorer
+/// (so that no HIT waits on it) and stores the study with it.
+async fn iconset_study(
+    db: &crate::store::db::Db,
+    name: &str,
+    lib: &str,
+    s: StudySettings,
+) -> Result<study::PendingPool> {
+    let library = library::ensure_existing(db, lib).await?;
+    let first = library::list_items(db, library)
+        .await?
+        .first()
+        .map(|i| i.id);
+    let pool = iconset::pool::draw(&s, first)?;
+    let settings: &IconsetSettings = s
+        .iconset
+        .as_ref()
+        .ok_or_else(|| AppError::Internal("no iconset settings".into()))?;
+    let cache = crate::search::IndexCache::default();
+    let explorer = iconset::explorer::compute(db, &cache, library, settings).await?;
+    let pending = study::begin_drawn(db, name, library, StudyKind::Iconset, s, pool).await?;
+    iconset::explorer::store(db, pending.id, &explorer).await?;
+    eprintln!(
+        "study {}: explorer of {} representative styles over {} items ({} in no style)",
+        pending.id,
+        explorer.styles.len(),
+        explorer.items,
+        explorer.unassigned
+    );
+    Ok(pending)
 }
 
 /// The defaults, then the settings file's fields over them.
@@ -137,6 +189,14 @@ fn check_flags(a: &CreateArgs, kind: StudyKind) -> Result<()> {
         || a.min_searches.is_some();
     if mashup_flags && kind != StudyKind::Mashup {
         return bad("--task, --background, --min-pieces and --min-searches are for --kind mashup");
+    }
+    let iconset_flags = a.labels.is_some()
+        || a.sets.is_some()
+        || a.model.is_some()
+        || a.kappa.is_some()
+        || a.tau.is_some();
+    if iconset_flags && kind != StudyKind::Iconset {
+        return bad("--labels, --sets, --model, --kappa and --tau are for --kind iconset");
     }
     let rating_inputs = a.compositions.is_some() || a.pairs.is_some() || !a.from_mashup.is_empty();
     if rating_inputs && kind != StudyKind::CompositionRating {
@@ -199,6 +259,23 @@ pub async fn run(a: CreateArgs) -> Result<()> {
         }
         s.mashup = m;
     }
+    let lib_name = a.library.clone().unwrap_or_else(|| "default".into());
+    if kind == StudyKind::Iconset {
+        let mut i = s.iconset.take().unwrap_or_default();
+        if let Some(labels) = &a.labels {
+            i.labels = labels.split(',').map(|l| l.trim().to_string()).collect();
+        }
+        i.sets = a.sets.unwrap_or(i.sets);
+        i.kappa = a.kappa.unwrap_or(i.kappa);
+        i.tau = a.tau.unwrap_or(i.tau);
+        if a.model.is_some() || i.model.is_none() {
+            // A model id, `uniform`, or the newest finished model over the library.
+            i.model = crate::explore::resolve(&db, &lib_name, a.model.as_deref())
+                .await?
+                .1;
+        }
+        s.iconset = Some(i);
+    }
     let lib = a
         .library
         .clone()
@@ -233,6 +310,7 @@ pub async fn run(a: CreateArgs) -> Result<()> {
             let pool = mashup::pool::draw(&s, first)?;
             study::begin_drawn(&db, &a.name, library, kind, s, pool).await?
         }
+        StudyKind::Iconset => iconset_study(&db, &a.name, &lib, s).await?,
     };
     let (id, warnings) = (pending.id, pending.warnings.clone());
     // The pool is written in chunks (a server on the same database keeps answering); a large

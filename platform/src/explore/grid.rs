@@ -4,7 +4,7 @@
 //! on request (a branch is small enough), in a blocking thread.
 
 use learner::explore::{BalanceParams, SomParams, balanced_grid};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::UNLABELLED;
@@ -12,14 +12,14 @@ use super::jobs::Job;
 use super::taxonomy::TaxonomyResult;
 use crate::AppState;
 use crate::error::{AppError, Result};
-use crate::search::cache::Key;
+use crate::search::cache::{Built, Key};
 use crate::store::ids::ItemId;
 
 /// Most nodes of a grid shown on a page.
 pub const MAX_CELLS: usize = 2_500;
 
 /// One node.
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct Cell {
     /// Row, from 0.
     pub row: usize,
@@ -32,7 +32,7 @@ pub struct Cell {
 }
 
 /// A branch on the grid.
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct BranchGrid {
     /// Rows `M`.
     pub rows: usize,
@@ -108,51 +108,58 @@ pub async fn layout(
             },
         )
         .await?;
-    let grid = tokio::task::spawn_blocking(move || {
-        let matrix = built.index.matrix();
-        let dim = matrix.stride();
-        let mut names: Vec<&str> = Vec::new();
-        let (mut points, mut labels) = (Vec::with_capacity(n * dim), Vec::with_capacity(n));
-        for id in &members {
-            let row = built.row_of(*id).ok_or_else(|| {
-                AppError::Conflict(format!("item {id} is no longer in the library"))
-            })?;
-            points.extend_from_slice(matrix.row(row));
-            let label = built.styles[row].as_deref().unwrap_or(UNLABELLED);
-            let l = match names.iter().position(|x| *x == label) {
-                Some(l) => l,
-                None => {
-                    names.push(label);
-                    names.len() - 1
-                }
-            };
-            labels.push(l as u32);
-        }
-        let (grid, _) = balanced_grid(
-            &points,
-            dim,
-            &labels,
-            &SomParams::new(rows, cols),
-            &BalanceParams::default(),
-        )
-        .map_err(|e| AppError::BadRequest(e.to_string()))?;
-        Ok::<_, AppError>(BranchGrid {
-            rows: grid.rows,
-            cols: grid.cols,
-            members: n,
-            cells: grid
-                .nodes
-                .iter()
-                .map(|node| Cell {
-                    row: node.row,
-                    col: node.col,
-                    shown: node.shown.map(|i| members[i]),
-                    hidden: node.hidden.iter().map(|&i| members[i]).collect(),
-                })
-                .collect(),
-        })
-    })
-    .await
-    .map_err(AppError::internal)??;
+    let grid = tokio::task::spawn_blocking(move || arrange(&built, &members, rows, cols))
+        .await
+        .map_err(AppError::internal)??;
     Ok(grid)
+}
+
+/// Lays out `members` (items of `built`'s library) on an `rows × cols` balanced grid in
+/// `built`'s style space (blocking: call it off the async runtime). The icon-set study's
+/// explorer (`studies::iconset::explorer`) lays out every branch with it when the study is
+/// created.
+pub fn arrange(built: &Built, members: &[ItemId], rows: usize, cols: usize) -> Result<BranchGrid> {
+    let n = members.len();
+    let matrix = built.index.matrix();
+    let dim = matrix.stride();
+    let mut names: Vec<&str> = Vec::new();
+    let (mut points, mut labels) = (Vec::with_capacity(n * dim), Vec::with_capacity(n));
+    for id in members {
+        let row = built
+            .row_of(*id)
+            .ok_or_else(|| AppError::Conflict(format!("item {id} is no longer in the library")))?;
+        points.extend_from_slice(matrix.row(row));
+        let label = built.styles[row].as_deref().unwrap_or(UNLABELLED);
+        let l = match names.iter().position(|x| *x == label) {
+            Some(l) => l,
+            None => {
+                names.push(label);
+                names.len() - 1
+            }
+        };
+        labels.push(l as u32);
+    }
+    let (grid, _) = balanced_grid(
+        &points,
+        dim,
+        &labels,
+        &SomParams::new(rows, cols),
+        &BalanceParams::default(),
+    )
+    .map_err(|e| AppError::BadRequest(e.to_string()))?;
+    Ok(BranchGrid {
+        rows: grid.rows,
+        cols: grid.cols,
+        members: n,
+        cells: grid
+            .nodes
+            .iter()
+            .map(|node| Cell {
+                row: node.row,
+                col: node.col,
+                shown: node.shown.map(|i| members[i]),
+                hidden: node.hidden.iter().map(|&i| members[i]).collect(),
+            })
+            .collect(),
+    })
 }

@@ -29,6 +29,10 @@ pub enum StudyKind {
     CompositionRating,
     /// Compose a scene on the mash-up canvas with condition A or B search (§5.7.3).
     Mashup,
+    /// Find icons of a few labels in one style, several sets in different styles, with the
+    /// style explorer (condition A) or the search ordered by style (condition B) (Garces et
+    /// al. 2016 §6.6).
+    Iconset,
 }
 
 /// What a valid answer of a kind is.
@@ -38,6 +42,8 @@ pub enum AnswerShape {
     Choice,
     /// A composition document submitted from the canvas.
     Composition,
+    /// A tray of icon sets, every slot filled.
+    IconSets,
 }
 
 /// The question of a composition-rating study (one per study: see docs/platform/README.md).
@@ -53,7 +59,12 @@ pub enum RatingQuestion {
 
 impl StudyKind {
     /// Every kind.
-    pub const ALL: [StudyKind; 3] = [Self::Triplet, Self::CompositionRating, Self::Mashup];
+    pub const ALL: [StudyKind; 4] = [
+        Self::Triplet,
+        Self::CompositionRating,
+        Self::Mashup,
+        Self::Iconset,
+    ];
 
     /// As stored in `studies.kind` and written on the command line.
     pub fn as_str(self) -> &'static str {
@@ -61,6 +72,7 @@ impl StudyKind {
             Self::Triplet => "triplet",
             Self::CompositionRating => "composition-rating",
             Self::Mashup => "mashup",
+            Self::Iconset => "iconset",
         }
     }
 
@@ -71,7 +83,7 @@ impl StudyKind {
             .find(|k| k.as_str() == s)
             .ok_or_else(|| {
                 AppError::BadRequest(format!(
-                    "kind: {s:?} is not one of triplet, composition-rating, mashup"
+                    "kind: {s:?} is not one of triplet, composition-rating, mashup, iconset"
                 ))
             })
     }
@@ -91,6 +103,7 @@ impl StudyKind {
                 "Which composition do you like better?"
             }
             (Self::Mashup, _) => "Compose a scene from clip art as the task says.",
+            (Self::Iconset, _) => "Find icons in one style for every slot of each set.",
             (Self::Triplet, _) => "Which picture below is more similar in style to the one above?",
         }
     }
@@ -100,13 +113,15 @@ impl StudyKind {
         match self {
             Self::Triplet | Self::CompositionRating => AnswerShape::Choice,
             Self::Mashup => AnswerShape::Composition,
+            Self::Iconset => AnswerShape::IconSets,
         }
     }
 
     /// A new study's settings before a settings file, flags or form fields: the paper's triplet
     /// defaults; for a composition rating its own instructions, no worked example or reasons
     /// questionnaire (both are about triplets) and the coherence question; for a mash-up study
-    /// one composition task per HIT (`mashup::pool::defaults`).
+    /// one composition task per HIT (`mashup::pool::defaults`); for an icon-set study one tray
+    /// of sets per HIT (`iconset::pool::defaults`).
     pub fn default_settings(self) -> crate::studies::study::StudySettings {
         use crate::studies::study::StudySettings;
         match self {
@@ -119,6 +134,7 @@ impl StudyKind {
                 ..StudySettings::default()
             },
             Self::Mashup => crate::studies::mashup::pool::defaults(None),
+            Self::Iconset => crate::studies::iconset::pool::defaults(None),
             Self::Triplet => StudySettings::default(),
         }
     }

@@ -5,6 +5,7 @@
 pub mod bonus;
 pub mod dashboard;
 pub mod export;
+pub mod iconset;
 pub mod kind;
 pub mod library;
 pub mod markdown;

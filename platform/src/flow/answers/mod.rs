@@ -57,6 +57,8 @@ pub enum AnsweredBy {
     Question,
     /// `POST …/mashup/submit`, after the composition is checked and stored.
     ComposedScene,
+    /// `POST …/iconset/submit`, after every set of the tray is finished (§6.6).
+    IconSets,
 }
 
 /// What the answer path needs to know before writing, read in one query.
@@ -84,6 +86,11 @@ impl AnswerTarget {
         if by == AnsweredBy::Question && self.kind == StudyKind::Mashup.as_str() {
             return Err(AppError::Conflict(
                 "a mash-up task ends by submitting the composition (/mashup/submit)".into(),
+            ));
+        }
+        if by == AnsweredBy::Question && self.kind == StudyKind::Iconset.as_str() {
+            return Err(AppError::Conflict(
+                "an icon-set task ends by submitting the tray (/iconset/submit)".into(),
             ));
         }
         if self.status != "active" && self.status != "completed" {

@@ -206,12 +206,12 @@ pub(super) const REPORT: Table = Table {
     columns: &[
         text(
             "kind",
-            "the study's kind: triplet, composition-rating or mashup",
+            "the study's kind: triplet, composition-rating, mashup or iconset",
         ),
         text(
             "group",
-            "empty for the whole study, A or B for a mash-up condition, worker N for one \
-             worker of a composition rating (the platform's worker number, as in report.json)",
+            "empty for the whole study, A or B for a mash-up or icon-set condition, worker N \
+             for one worker of a composition rating (the platform's worker number, as in report.json)",
         ),
         text(
             "measure",
@@ -220,7 +220,9 @@ pub(super) const REPORT: Table = Table {
              against 0.5), effect_size (Cohen's d), sd, ci_low, ci_high, note, and per worker \
              answers, chose_a, rate; for a mash-up study per condition workers, pieces, \
              searches and position_mean, position_half_width, position_low, position_high, \
-             position_sd",
+             position_sd; for an icon-set study confidence and per condition workers, sets and \
+             seconds_per_set_, deletions_per_set_, searches_per_set_ and spread_per_set_ mean, half_width, low, \
+             high, sd",
         ),
         number(
             "value",
@@ -231,7 +233,7 @@ pub(super) const REPORT: Table = Table {
 };
 
 /// Every CSV file, in the order of [`super::FILES`].
-pub(super) const TABLES: [&Table; 11] = [
+pub(super) const TABLES: [&Table; 12] = [
     &TRIPLETS,
     &REASONS,
     &WORKERS,
@@ -239,6 +241,7 @@ pub(super) const TABLES: [&Table; 11] = [
     &BONUSES,
     &super::mashup::SEARCHES,
     &super::mashup::EVENTS,
+    &super::iconset::SETS,
     &MTURK_DECISIONS,
     &MTURK_BONUSES,
     &PROLIFIC_BONUSES,
@@ -290,8 +293,9 @@ pub(super) fn notes() -> Value {
             use. It identifies a person: share only a pseudonymous export (pseudonymous=true).",
         "filters": {
             "default": "Without options, triplets.csv, reasons.csv, workers.csv, \
-                assignments.csv, bonuses.csv and the mash-up study's mashup_searches.csv and \
-                mashup_events.csv hold the completed, non-rejected HITs and, of \
+                assignments.csv, bonuses.csv, the mash-up study's mashup_searches.csv and \
+                mashup_events.csv and the icon-set study's iconset_sets.csv hold the completed, \
+                non-rejected HITs and, of \
                 their questions, the main ones only (training answers are never exported).",
             "include_controls": {
                 "triplets.csv": "adds the answers to hidden controls (tuple_id control:ID)",
@@ -301,6 +305,7 @@ pub(super) fn notes() -> Value {
                 "bonuses.csv": "no effect (a bonus is for a whole HIT)",
                 "mashup_searches.csv": "no effect (a mash-up HIT has no controls)",
                 "mashup_events.csv": "no effect (a mash-up HIT has no controls)",
+                "iconset_sets.csv": "no effect (an icon-set HIT has no controls)",
             },
             "include_rejected": {
                 "triplets.csv": "adds the answers of rejected HITs",
@@ -310,6 +315,7 @@ pub(super) fn notes() -> Value {
                 "bonuses.csv": "adds the bonuses recorded for rejected HITs",
                 "mashup_searches.csv": "adds the searches of rejected HITs",
                 "mashup_events.csv": "adds the canvas events of rejected HITs",
+                "iconset_sets.csv": "adds the sets of rejected HITs",
             },
             "include_incomplete": {
                 "triplets.csv": "adds the answers of HITs that are not completed (in \
@@ -321,6 +327,7 @@ pub(super) fn notes() -> Value {
                     screened out)",
                 "mashup_searches.csv": "adds the searches of HITs not submitted",
                 "mashup_events.csv": "adds the canvas events of HITs not submitted",
+                "iconset_sets.csv": "adds the finished sets of HITs not submitted",
             },
             "pseudonymous": {
                 "every file": "worker_id and triplets.csv's worker hold a pseudonym (W and \

@@ -1,7 +1,8 @@
 //! Exports of a study: `triplets.csv` in the learner's format (`a,b,c,q,worker,tuple_id`, q = 1
 //! when A was judged closer to B, plus `worker_id`), `reasons.csv`, `workers.csv`,
 //! `assignments.csv`, `bonuses.csv`, the mash-up study's `mashup_searches.csv` and
-//! `mashup_events.csv` (header only for other kinds), the payment files (`mturk_decisions.csv`
+//! `mashup_events.csv` and the icon-set study's `iconset_sets.csv` (header only for other
+//! kinds), the payment files (`mturk_decisions.csv`
 //! for MTurk's batch approve/reject upload, `mturk_bonuses.csv` for `aws mturk send-bonus`,
 //! `prolific_bonuses.csv` for Prolific's bulk bonus), the study's report (`report.json`, the
 //! report endpoint's body, and `report.csv`, its numbers one per row), `external_question.xml` and
@@ -25,6 +26,7 @@ use crate::time::iso8601;
 
 mod columns;
 mod data;
+mod iconset;
 mod mashup;
 mod report;
 mod table;
@@ -97,6 +99,7 @@ pub const FILES: &[&str] = &[
     "bonuses.csv",
     "mashup_searches.csv",
     "mashup_events.csv",
+    "iconset_sets.csv",
     "mturk_decisions.csv",
     "mturk_bonuses.csv",
     "prolific_bonuses.csv",
@@ -125,6 +128,7 @@ pub async fn build(
     let names: BTreeMap<i64, String> = items.iter().map(|i| (i.id.0, i.name.clone())).collect();
     let (triplets, reasons) = answers(db, study, opts, &by_id, &names).await?;
     let (mashup_searches, mashup_events) = mashup::rows(db, study, opts, &by_id, &names).await?;
+    let iconset_sets = iconset::rows(db, study, opts, &by_id, &names).await?;
     let bonuses = bonus::list(db, study.id).await?;
     let mut bonus_total: HashMap<i64, i64> = HashMap::new();
     for b in &bonuses {
@@ -275,6 +279,7 @@ pub async fn build(
             "bonuses": bonus_rows.len(),
             "mashup_searches": mashup_searches.len(),
             "mashup_events": mashup_events.len(),
+            "iconset_sets": iconset_sets.len(),
         },
         "items": manifest_items,
         "files": files,
@@ -305,6 +310,7 @@ pub async fn build(
             "mashup_events.csv".into(),
             mashup::EVENTS.csv(&mashup_events)?,
         ),
+        ("iconset_sets.csv".into(), iconset::SETS.csv(&iconset_sets)?),
     ];
     if !opts.pseudonymous {
         out.push((

@@ -2,7 +2,8 @@
 //! /api/v1/admin/studies/ID/report` (tagged with the kind), and `report.csv`, the same numbers
 //! one per row for a spreadsheet — for a composition rating the preference rate for condition A,
 //! the one-sided t-test against 0.5, its p-value and effect size (§5.7.3, Appendix 5.B), and
-//! each worker's rate; for a mash-up study the mean position of the pieces per condition.
+//! each worker's rate; for a mash-up study the mean position of the pieces per condition; for
+//! an icon-set study the time, deletions and searches per set per condition.
 //! The report always counts what it counts (completed, non-rejected HITs), whatever the export
 //! options of the other files.
 
@@ -86,6 +87,32 @@ pub(super) fn rows(report: &StudyReport) -> Vec<Vec<String>> {
                     ("position_sd", p.map(|p| p.sd)),
                 ] {
                     out.push(row(k, g, measure, v, ""));
+                }
+            }
+        }
+        StudyReport::Iconset(r) => {
+            let k = "iconset";
+            out.push(row(k, "", "confidence", Some(r.confidence), ""));
+            for c in &r.conditions {
+                let g = c.condition.as_str();
+                out.push(row(k, g, "workers", Some(c.workers as f64), ""));
+                out.push(row(k, g, "sets", Some(c.sets as f64), ""));
+                for (prefix, m) in [
+                    ("seconds_per_set", &c.seconds_per_set),
+                    ("deletions_per_set", &c.deletions_per_set),
+                    ("searches_per_set", &c.searches_per_set),
+                    ("spread_per_set", &c.spread_per_set),
+                ] {
+                    let m = m.as_ref();
+                    for (name, v) in [
+                        ("mean", m.map(|m| m.mean)),
+                        ("half_width", m.map(|m| m.half_width)),
+                        ("low", m.map(|m| m.low)),
+                        ("high", m.map(|m| m.high)),
+                        ("sd", m.map(|m| m.sd)),
+                    ] {
+                        out.push(row(k, g, &format!("{prefix}_{name}"), v, ""));
+                    }
                 }
             }
         }

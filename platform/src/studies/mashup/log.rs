@@ -99,7 +99,7 @@ pub fn positions(pieces: &[ItemId], canvas: &Canvas) -> Result<Vec<i64>> {
 /// On PostgreSQL, locks the row `id` of `table` for the rest of the transaction, so that
 /// writers numbering rows under it (`MAX(seq) + 1`) take turns; SQLite's `BEGIN IMMEDIATE`
 /// (`Db::begin_write`) already serialises every writer.
-pub(super) async fn lock_row(
+pub(crate) async fn lock_row(
     tx: &mut sqlx::AnyConnection,
     backend: Backend,
     table: Locked,
@@ -117,7 +117,7 @@ pub(super) async fn lock_row(
 
 /// The rows [`lock_row`] locks.
 #[derive(Debug, Clone, Copy)]
-pub(super) enum Locked {
+pub(crate) enum Locked {
     /// `assignments`: its searches, events and submission are numbered or checked under it.
     Assignment,
     /// `studies`: its conditions are numbered under it.

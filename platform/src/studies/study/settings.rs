@@ -106,6 +106,10 @@ pub struct StudySettings {
     /// the other kinds.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mashup: Option<crate::studies::mashup::MashupSettings>,
+    /// What an icon-set study asks (labels, sets, model, taxonomy κ and τ); absent for the
+    /// other kinds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub iconset: Option<crate::studies::iconset::IconsetSettings>,
     /// Seed of the tuple generation (below 2^53, so JavaScript reads it exactly).
     #[schema(minimum = 0, maximum = 9_007_199_254_740_991_u64)]
     pub seed: u64,
@@ -149,6 +153,7 @@ impl Default for StudySettings {
             exclude_workers_of: Vec::new(),
             question: None,
             mashup: None,
+            iconset: None,
             seed: 1,
         }
     }
@@ -186,6 +191,9 @@ impl StudySettings {
         }
         if let Some(m) = &self.mashup {
             m.validate()?;
+        }
+        if let Some(i) = &self.iconset {
+            i.validate()?;
         }
         if self.training_questions > 20 {
             return bad(format!(

@@ -10,8 +10,8 @@ use utoipa::openapi::{ContentBuilder, Ref, RefOr, ResponseBuilder};
 use utoipa::{Modify, OpenApi};
 
 use super::{
-    OkBody, admin, compositions, explore, mashup_worker, models, quality, schema, search, settings,
-    worker, workers,
+    OkBody, admin, compositions, explore, iconset_worker, mashup_worker, models, quality, schema,
+    search, settings, worker, workers,
 };
 use crate::error::ErrorBody;
 
@@ -32,6 +32,11 @@ use crate::error::ErrorBody;
         mashup_worker::mashup_search,
         mashup_worker::mashup_event,
         mashup_worker::mashup_submit,
+        iconset_worker::iconset_task,
+        iconset_worker::iconset_explorer,
+        iconset_worker::iconset_search,
+        iconset_worker::iconset_event,
+        iconset_worker::iconset_submit,
         admin::admin_session,
         admin::admin_studies,
         admin::admin_create_study,

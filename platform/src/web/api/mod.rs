@@ -23,6 +23,7 @@ mod admin;
 pub mod compositions;
 mod document;
 mod explore;
+pub(crate) mod iconset_worker;
 mod mashup_worker;
 mod models;
 pub mod quality;
@@ -75,6 +76,26 @@ pub fn routes() -> Router<AppState> {
         .route(
             "/api/v1/assignments/{token}/mashup/submit",
             post(mashup_worker::mashup_submit),
+        )
+        .route(
+            "/api/v1/assignments/{token}/iconset",
+            get(iconset_worker::iconset_task),
+        )
+        .route(
+            "/api/v1/assignments/{token}/iconset/explorer",
+            get(iconset_worker::iconset_explorer),
+        )
+        .route(
+            "/api/v1/assignments/{token}/iconset/search",
+            get(iconset_worker::iconset_search),
+        )
+        .route(
+            "/api/v1/assignments/{token}/iconset/events",
+            post(iconset_worker::iconset_event),
+        )
+        .route(
+            "/api/v1/assignments/{token}/iconset/submit",
+            post(iconset_worker::iconset_submit),
         )
         .route("/api/v1/assignments/{token}/reasons", post(reasons))
         .route("/api/v1/admin/session", get(admin_session))

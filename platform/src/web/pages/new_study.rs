@@ -1,6 +1,7 @@
-//! The admin forms that create a composition-rating study from a mash-up study and a mash-up
-//! study (§5.7.3), beside the triplet form of the studies list. A refused form is shown again,
-//! with its values and the reason, and a 400; nothing is stored.
+//! The admin forms that create a composition-rating study from a mash-up study, a mash-up
+//! study (§5.7.3) and an icon-set study (Garces et al. 2016 §6.6, its explorer computed before
+//! the study is stored), beside the triplet form of the studies list. A refused form is shown
+//! again, with its values and the reason, and a 400; nothing is stored.
 
 use askama::Template;
 use axum::Router;
@@ -46,6 +47,12 @@ struct NewStudyForm {
     min_pieces: String,
     min_searches: String,
     compositions: String,
+    labels: String,
+    sets: String,
+    model: String,
+    kappa: String,
+    tau: String,
+    trays: String,
     questions_per_hit: String,
     replication: String,
     mturk_mode: String,
@@ -58,6 +65,11 @@ impl NewStudyForm {
             question: "coherence".into(),
             min_pieces: "3".into(),
             min_searches: "1".into(),
+            labels: crate::studies::iconset::DEFAULT_LABELS.join(","),
+            sets: crate::studies::iconset::DEFAULT_SETS.to_string(),
+            kappa: "20".into(),
+            tau: "2".into(),
+            trays: crate::studies::iconset::pool::DEFAULT_TRAYS.to_string(),
             compositions: pool::DEFAULT_COMPOSITIONS.to_string(),
             questions_per_hit: "50".into(),
             replication: "3".into(),
@@ -79,6 +91,7 @@ struct Choice {
 struct NewStudyPage {
     csrf: String,
     rating: bool,
+    iconset: bool,
     action: String,
     error: String,
     form: NewStudyForm,
@@ -134,6 +147,7 @@ async fn show(
     Ok(NewStudyPage {
         csrf,
         rating: kind == StudyKind::CompositionRating,
+        iconset: kind == StudyKind::Iconset,
         action: format!("/admin/studies/new/{kind}"),
         error,
         form,
@@ -193,8 +207,44 @@ fn mturk(text: &str) -> Result<MturkMode> {
     }
 }
 
+/// A whole number typed into the field `label`, as a `usize`.
+fn count(label: &str, text: &str) -> Result<usize> {
+    number(label, text).map(|n| n as usize)
+}
+
+/// Checks the icon-set form, computes the explorer and stores the study with it.
+async fn create_iconset(
+    state: &AppState,
+    mut s: crate::studies::study::StudySettings,
+    f: &NewStudyForm,
+) -> Result<study::PendingPool> {
+    use crate::studies::iconset::{self, IconsetSettings};
+    s.tuples = number("HITs", &f.trays)?;
+    let (library, model) =
+        crate::explore::resolve(&state.db, &f.library, Some(f.model.trim())).await?;
+    let settings = IconsetSettings {
+        labels: f.labels.split(',').map(|l| l.trim().to_string()).collect(),
+        sets: number("Sets", &f.sets)?,
+        model,
+        kappa: count("κ", &f.kappa)?,
+        tau: count("τ", &f.tau)?,
+    };
+    s.iconset = Some(settings.clone());
+    let first = library::list_items(&state.db, library)
+        .await?
+        .first()
+        .map(|i| i.id);
+    let drawn = iconset::pool::draw(&s, first)?;
+    let explorer = iconset::explorer::compute(&state.db, &state.search, library, &settings).await?;
+    let pending =
+        study::begin_drawn(&state.db, &f.name, library, StudyKind::Iconset, s, drawn).await?;
+    iconset::explorer::store(&state.db, pending.id, &explorer).await?;
+    Ok(pending)
+}
+
 /// Creates the study the form describes; its id.
-async fn create(db: &Db, kind: StudyKind, f: &NewStudyForm) -> Result<StudyId> {
+async fn create(state: &AppState, kind: StudyKind, f: &NewStudyForm) -> Result<StudyId> {
+    let db = &state.db;
     let mut s = kind.default_settings();
     s.mturk_mode = mturk(&f.mturk_mode)?;
     let pending = if kind == StudyKind::CompositionRating {
@@ -219,6 +269,8 @@ async fn create(db: &Db, kind: StudyKind, f: &NewStudyForm) -> Result<StudyId> {
             l => l.to_string(),
         };
         rating::from_mashup::create(db, &f.name, &lib, &[source], pairs, s).await?
+    } else if kind == StudyKind::Iconset {
+        create_iconset(state, s, f).await?
     } else {
         s.tuples = number("Compositions", &f.compositions)?;
         let background = Some(f.background.clone()).filter(|b| !b.is_empty());
@@ -253,7 +305,7 @@ async fn form_submit(
             let kind = kind_of(&kind)?;
             let ApiForm(f) = form?;
             admin.check_csrf(f.csrf.as_deref())?;
-            match create(&state.db, kind, &f).await {
+            match create(&state, kind, &f).await {
                 Ok(id) => Ok(Redirect::to(&format!("/admin/studies/{id}")).into_response()),
                 Err(e) if e.status().is_client_error() => {
                     let status = e.status();

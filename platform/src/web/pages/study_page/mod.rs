@@ -81,6 +81,8 @@ struct AdminStudy {
     rating: Option<crate::studies::rating::RatingReport>,
     /// A mash-up study's report (mean position per condition).
     mashup: Option<crate::studies::mashup::MashupReport>,
+    /// An icon-set study's report (time and deletions per set per condition).
+    iconset: Option<crate::studies::iconset::IconsetReport>,
     d: dashboard::Dashboard,
     rejection_rate: String,
     agreement: String,
@@ -282,8 +284,12 @@ async fn study_page(state: &AppState, admin: &Admin, id: StudyId, view: View) ->
             crate::studies::report::StudyReport::CompositionRating(r) => Some(r.clone()),
             _ => None,
         },
-        mashup: match report {
-            crate::studies::report::StudyReport::Mashup(m) => Some(m),
+        mashup: match &report {
+            crate::studies::report::StudyReport::Mashup(m) => Some(m.clone()),
+            _ => None,
+        },
+        iconset: match report {
+            crate::studies::report::StudyReport::Iconset(r) => Some(r),
             _ => None,
         },
         rejection_rate: fmt_opt(d.rejection_rate),

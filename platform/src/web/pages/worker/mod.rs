@@ -9,6 +9,7 @@ use axum::routing::{get, post};
 use crate::AppState;
 
 mod done;
+mod iconset;
 mod mashup;
 mod start;
 mod task;
@@ -24,4 +25,5 @@ pub(super) fn routes() -> Router<AppState> {
         .route("/a/{token}/give-up", post(task::give_up_submit))
         .route("/a/{token}/answer", post(task::answer_submit))
         .route("/a/{token}/reasons", post(task::reasons_submit))
+        .route("/a/{token}/iconset", post(iconset::iconset_submit))
 }

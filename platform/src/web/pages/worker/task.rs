@@ -2,7 +2,7 @@
 //! attempt, one question at a time, the reasons questionnaire, and the forms they post.
 
 use askama::Template;
-use axum::extract::State;
+use axum::extract::{RawQuery, State};
 use axum::response::{IntoResponse, Redirect, Response};
 use serde::Deserialize;
 
@@ -55,13 +55,14 @@ struct ReasonsPage {
 pub(super) async fn assignment_page(
     State(state): State<AppState>,
     ApiPath(token): ApiPath<String>,
+    RawQuery(query): RawQuery,
 ) -> Response {
-    page(show_assignment(&state, &token).await)
+    page(show_assignment(&state, &token, query.as_deref()).await)
 }
 
 /// The page the assignment is at: training, the questionnaire pending, the next question, or
 /// the end page.
-async fn show_assignment(state: &AppState, token: &str) -> Result<Response> {
+async fn show_assignment(state: &AppState, token: &str, query: Option<&str>) -> Result<Response> {
     let a = flow::by_token(&state.db, token).await?;
     let s = flow::study_of(&state.db, &a).await?;
     let st = flow::state(&state.db, &s, &a).await?;
@@ -109,6 +110,13 @@ async fn show_assignment(state: &AppState, token: &str) -> Result<Response> {
             question,
             groups,
         });
+    }
+    // An icon-set HIT's one question stands for the tray of sets: the tray instead.
+    if st.question.is_some()
+        && super::iconset::is_iconset(&s)
+        && let Some(settings) = &s.settings.iconset
+    {
+        return super::iconset::render_task(state, token, &a, &s, settings, sandbox, query).await;
     }
     // A mash-up HIT's one question stands for the composition: the canvas instead.
     if let (Some(_), StudyKind::Mashup, Some(m)) = (&st.question, s.kind, s.settings.mashup) {
