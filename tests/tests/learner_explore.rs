@@ -375,6 +375,7 @@ fn grid_lays_out_a_taxonomy_branch_without_losing_an_item() {
         .collect();
     let side = (members.len() as f64).sqrt().floor() as usize;
     let out = dir.path().join("grid.json");
+    let mut alone = Vec::new();
     for layout in ["balanced", "som", "isomatch", "random"] {
         let mut args = filter.to_vec();
         let (rows, cols) = (side.to_string(), side.to_string());
@@ -436,7 +437,48 @@ fn grid_lays_out_a_taxonomy_branch_without_losing_an_item() {
         }
         assert!(g["quality"]["dpq16"].as_f64().is_some(), "{g}");
         assert!(image::open(dir.path().join("grid.png")).is_ok());
+        alone.push((layout, g["cost"].clone(), g["quality"].clone()));
     }
+    // --compare reports all four layouts on the same branch, each as its own run measures it
+    // (same seed), and prints the table.
+    let mut args = filter.to_vec();
+    let (rows, cols) = (side.to_string(), side.to_string());
+    args.extend([
+        "--taxonomy",
+        taxonomy.to_str().unwrap(),
+        "--branch",
+        branch["id"].as_str().unwrap(),
+        "--rows",
+        &rows,
+        "--cols",
+        &cols,
+        "--layout",
+        "som",
+        "--compare",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let run = explore("grid", &args);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let g = read_json(&out);
+    assert_eq!(g["layout"], "som");
+    let comparison = g["comparison"].as_array().expect("comparison");
+    assert_eq!(comparison.len(), 4, "{g}");
+    assert_eq!(comparison[0]["layout"], "som", "the chosen layout first");
+    for (layout, cost, quality) in &alone {
+        let row = comparison
+            .iter()
+            .find(|c| c["layout"] == *layout)
+            .unwrap_or_else(|| panic!("{layout} missing: {g}"));
+        assert_eq!((&row["cost"], &row["quality"]), (cost, quality), "{layout}");
+    }
+    let table = stderr(&run);
+    assert!(
+        ["balanced", "som", "isomatch", "random", "Spearman", "DPQ16"]
+            .iter()
+            .all(|w| table.contains(w)),
+        "{table}"
+    );
     // A grid larger than the branch, and a branch that is not in the taxonomy.
     let mut args = filter.to_vec();
     args.extend([

@@ -57,6 +57,66 @@ pub struct GridArgs {
     /// to stdout.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Also lay the same items on the same grid with the other three layouts and report each
+    /// one's eq. 6.1 terms, Spearman, DPQ16 and time (a table on stderr, `comparison` in the
+    /// JSON), to see which arrangement keeps style best on this branch.
+    #[arg(long)]
+    pub compare: bool,
+}
+
+/// The items of `library` placed on `args`' grid by `layout`.
+fn place(layout: Layout, library: &StyleLibrary, args: &GridArgs) -> Result<Grid> {
+    let (points, dim, labels) = (library.points(), library.dim(), library.labels());
+    let som_params = SomParams {
+        seed: args.seed,
+        ..SomParams::new(args.rows, args.cols)
+    };
+    Ok(match layout {
+        Layout::Balanced => {
+            grid::balanced_grid(points, dim, labels, &som_params, &BalanceParams::default())?.0
+        }
+        Layout::Som => som_grid(points, dim, &grid::som(points, dim, &som_params)?)?,
+        Layout::Isomatch => isomatch(
+            points,
+            dim,
+            &IsoMatchParams {
+                seed: args.seed,
+                ..IsoMatchParams::new(args.rows, args.cols)
+            },
+        )?,
+        Layout::Random => random_layout(library.len(), args.rows, args.cols, args.seed)?,
+    })
+}
+
+/// Eq. 6.1's terms and the quality of `layout` as JSON, and a table row.
+fn measure(layout: &Grid, library: &StyleLibrary, seed: u64) -> Result<(Value, String)> {
+    let (points, dim, labels) = (library.points(), library.dim(), library.labels());
+    let quality = QualityParams {
+        seed,
+        ..QualityParams::default()
+    };
+    let cost = grid::cost(layout, labels)?;
+    let spearman = grid::layout_spearman(points, dim, layout, &quality).ok();
+    let dpq = grid::dpq(points, dim, layout, &quality).ok();
+    let shown = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.3}"));
+    let row = format!(
+        "{:>6} {:>6} {:>9.2} {:>8.2} {:>8} {:>6}",
+        cost.empty,
+        cost.multi,
+        cost.imbalance,
+        cost.total,
+        shown(spearman),
+        shown(dpq)
+    );
+    let value = json!({
+        "cost": {"empty": cost.empty, "multi": cost.multi, "imbalance": cost.imbalance, "total": cost.total},
+        "quality": {"spearman": spearman, "dpq16": dpq},
+    });
+    Ok((value, row))
+}
+
+fn layout_name(layout: Layout) -> String {
+    format!("{layout:?}").to_lowercase()
 }
 
 pub fn run(args: &GridArgs) -> Result<()> {
@@ -86,60 +146,62 @@ pub fn run(args: &GridArgs) -> Result<()> {
         Layout::Isomatch => "Isomap + assignment",
         Layout::Random => "random layout",
     });
-    let (points, dim, labels) = (library.points(), library.dim(), library.labels());
-    let som_params = SomParams {
-        seed: args.seed,
-        ..SomParams::new(args.rows, args.cols)
-    };
-    let layout: Grid = match args.layout {
-        Layout::Balanced => {
-            grid::balanced_grid(points, dim, labels, &som_params, &BalanceParams::default())?.0
-        }
-        Layout::Som => som_grid(points, dim, &grid::som(points, dim, &som_params)?)?,
-        Layout::Isomatch => isomatch(
-            points,
-            dim,
-            &IsoMatchParams {
-                seed: args.seed,
-                ..IsoMatchParams::new(args.rows, args.cols)
-            },
-        )?,
-        Layout::Random => random_layout(library.len(), args.rows, args.cols, args.seed)?,
-    };
+    let labels = library.labels();
+    let start = std::time::Instant::now();
+    let layout = place(args.layout, &library, args)?;
+    let seconds = start.elapsed().as_secs_f64();
     bar.set_message("quality");
-    let quality = QualityParams {
-        seed: args.seed,
-        ..QualityParams::default()
-    };
-    let cost = grid::cost(&layout, labels)?;
-    let spearman = grid::layout_spearman(points, dim, &layout, &quality).ok();
-    let dpq = grid::dpq(points, dim, &layout, &quality).ok();
+    let (measured, row) = measure(&layout, &library, args.seed)?;
+    let mut comparison = vec![(
+        layout_name(args.layout),
+        Ok((measured.clone(), row)),
+        seconds,
+    )];
+    if args.compare {
+        for other in Layout::value_variants()
+            .iter()
+            .filter(|&&l| l != args.layout)
+        {
+            bar.set_message(format!("comparison: {}", layout_name(*other)));
+            let start = std::time::Instant::now();
+            let placed = place(*other, &library, args);
+            let seconds = start.elapsed().as_secs_f64();
+            let result = placed.and_then(|g| measure(&g, &library, args.seed));
+            comparison.push((layout_name(*other), result, seconds));
+        }
+    }
     bar.finish_and_clear();
     let item_labels: Vec<String> = labels
         .iter()
         .map(|&l| library.label_names()[l as usize].clone())
         .collect();
     let mut value = serde_json::to_value(layout.export(library.ids(), &item_labels)?)?;
-    value["layout"] = json!(format!("{:?}", args.layout).to_lowercase());
+    value["layout"] = json!(layout_name(args.layout));
     value["items"] = json!(library.len());
-    value["cost"] = json!({
-        "empty": cost.empty, "multi": cost.multi, "imbalance": cost.imbalance, "total": cost.total,
-    });
-    value["quality"] = json!({"spearman": spearman, "dpq16": dpq});
-    if !args.library.quiet {
+    value["cost"] = measured["cost"].clone();
+    value["quality"] = measured["quality"].clone();
+    if args.compare {
+        value["comparison"] = comparison
+            .iter()
+            .map(|(name, result, seconds)| match result {
+                Ok((m, _)) => json!({"layout": name, "seconds": seconds, "cost": m["cost"], "quality": m["quality"]}),
+                Err(e) => json!({"layout": name, "seconds": seconds, "error": format!("{e:#}")}),
+            })
+            .collect();
+    }
+    // The comparison table is what --compare asks for: printed even with --quiet.
+    if !args.library.quiet || args.compare {
+        eprintln!("{} items on {}x{}:", library.len(), args.rows, args.cols);
         eprintln!(
-            "{} items on {}x{}: eq. 6.1 = {:.2} ({} empty, {} multi, label imbalance {:.2}); \
-             Spearman {}, DPQ16 {}",
-            library.len(),
-            args.rows,
-            args.cols,
-            cost.total,
-            cost.empty,
-            cost.multi,
-            cost.imbalance,
-            spearman.map_or("-".into(), |v| format!("{v:.3}")),
-            dpq.map_or("-".into(), |v| format!("{v:.3}"))
+            "{:<9} {:>8} {:>6} {:>6} {:>9} {:>8} {:>8} {:>6}",
+            "layout", "seconds", "empty", "multi", "imbalance", "eq. 6.1", "Spearman", "DPQ16"
         );
+        for (name, result, seconds) in &comparison {
+            match result {
+                Ok((_, row)) => eprintln!("{name:<9} {seconds:>8.3} {row}"),
+                Err(e) => eprintln!("{name:<9} {seconds:>8.3} not laid out: {e:#}"),
+            }
+        }
     }
     let Some(out) = &args.out else {
         outln!("{}", serde_json::to_string_pretty(&value)?)?;
