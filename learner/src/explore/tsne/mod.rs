@@ -42,7 +42,9 @@
 mod affinity;
 mod gradient;
 mod init;
+mod interpolation;
 mod knn;
+mod nndescent;
 mod optimise;
 mod params;
 mod quadtree;
@@ -51,7 +53,7 @@ pub mod quality;
 use std::time::Instant;
 
 pub use affinity::Affinities;
-pub use params::{TsneInfo, TsneInit, TsneMethod, TsneParams};
+pub use params::{TsneInfo, TsneInit, TsneKnn, TsneMethod, TsneParams};
 
 use crate::{Error, Result};
 use gradient::Repulsive;
@@ -114,18 +116,55 @@ fn validate(points: &[f32], dim: usize, params: &TsneParams) -> Result<usize> {
 fn resolve(method: TsneMethod, n: usize, params: &TsneParams) -> TsneMethod {
     match method {
         TsneMethod::Auto if n <= params.exact_max_points => TsneMethod::Exact,
+        TsneMethod::Auto if n >= params.fft_min_points => TsneMethod::Fft,
         TsneMethod::Auto => TsneMethod::BarnesHut,
         m => m,
     }
 }
 
-fn build_affinities(points: &[f32], dim: usize, method: TsneMethod, perplexity: f64) -> Affinities {
-    let neighbours = match method {
-        TsneMethod::Exact => knn::all_pairs(points, dim),
-        _ => knn::nearest(points, dim, (3.0 * perplexity).floor() as usize),
+fn resolve_knn(method: TsneMethod, n: usize, params: &TsneParams) -> TsneKnn {
+    match (method, params.knn) {
+        (TsneMethod::Exact, _) => TsneKnn::Exact,
+        (_, TsneKnn::Auto) if n <= params.exact_knn_max_points => TsneKnn::Exact,
+        (_, TsneKnn::Auto) => TsneKnn::Approximate,
+        (_, k) => k,
+    }
+}
+
+fn build_affinities(
+    points: &[f32],
+    dim: usize,
+    method: TsneMethod,
+    knn: TsneKnn,
+    params: &TsneParams,
+) -> Affinities {
+    let k = params.neighbours();
+    let neighbours = match (method, knn) {
+        (TsneMethod::Exact, _) => knn::all_pairs(points, dim),
+        (_, TsneKnn::Approximate) => nndescent::nearest(points, dim, k, &approximate(params)),
+        _ => knn::nearest(points, dim, k),
     };
-    let (conditional, _) = affinity::conditional(&neighbours, perplexity);
+    let (conditional, _) = affinity::conditional(&neighbours, params.perplexity);
     affinity::symmetrise(&neighbours, &conditional)
+}
+
+fn approximate(params: &TsneParams) -> nndescent::Approximate {
+    nndescent::Approximate {
+        n_trees: params.n_trees,
+        leaf_size: params.leaf_size,
+        n_iter: params.nn_descent_iter,
+        max_candidates: params.max_candidates,
+        delta: params.nn_descent_delta,
+        seed: params.seed,
+    }
+}
+
+fn interpolation(params: &TsneParams) -> interpolation::Interpolation {
+    interpolation::Interpolation {
+        points: params.n_interpolation_points,
+        min_intervals: params.min_num_intervals,
+        ints_in_interval: params.ints_in_interval,
+    }
 }
 
 /// The joint input affinities P that [`tsne`] would use for these points and params (dense for
@@ -133,11 +172,13 @@ fn build_affinities(points: &[f32], dim: usize, method: TsneMethod, perplexity: 
 /// [`tsne`].
 pub fn affinities(points: &[f32], dim: usize, params: &TsneParams) -> Result<Affinities> {
     let n = validate(points, dim, params)?;
+    let method = resolve(params.method, n, params);
     Ok(build_affinities(
         points,
         dim,
-        resolve(params.method, n, params),
-        params.perplexity,
+        method,
+        resolve_knn(method, n, params),
+        params,
     ))
 }
 
@@ -157,8 +198,9 @@ pub fn tsne(
 ) -> Result<(Vec<[f32; 2]>, TsneInfo)> {
     let n = validate(points, dim, params)?;
     let method = resolve(params.method, n, params);
+    let knn = resolve_knn(method, n, params);
     let t = Instant::now();
-    let p = build_affinities(points, dim, method, params.perplexity);
+    let p = build_affinities(points, dim, method, knn, params);
     let affinity_seconds = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut y = init::initial(points, dim, params.init, params.seed);
@@ -168,6 +210,7 @@ pub fn tsne(
         .unwrap_or_else(|| (n as f64 / params.early_exaggeration / 4.0).max(50.0));
     let repulsive = match method {
         TsneMethod::Exact => Repulsive::Exact,
+        TsneMethod::Fft => Repulsive::Fft(interpolation(params)),
         _ => Repulsive::BarnesHut(params.theta),
     };
     let phases = [
@@ -212,6 +255,7 @@ pub fn tsne(
             TsneMethod::Exact => n - 1,
             _ => params.neighbours(),
         },
+        knn,
         learning_rate,
         affinity_seconds,
         init_seconds,
@@ -226,6 +270,9 @@ mod tests;
 
 #[cfg(test)]
 mod error_tests;
+
+#[cfg(test)]
+mod fast_tests;
 
 /// The embeddings against openTSNE's and scikit-learn's (reference values of
 /// `scripts/reference/tsne_reference.py`).
