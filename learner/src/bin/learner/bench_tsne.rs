@@ -193,7 +193,7 @@ pub fn run(a: &BenchTsneArgs) -> Result<()> {
     let cpu = cpu_seconds();
     let (y, info) = pool.install(|| tsne(&x, dim, &params, &mut |_, _| {}))?;
     let ours = Side {
-        name: format!("learner t-SNE ({:?})", info.method),
+        name: format!("learner t-SNE ({:?}, {:?} kNN)", info.method, info.knn),
         seconds: t.elapsed().as_secs_f64(),
         cpu_seconds: cpu_seconds() - cpu,
         kl_own: info.kl_divergence,

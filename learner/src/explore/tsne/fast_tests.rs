@@ -188,7 +188,10 @@ fn assert_close(
             kl_divergence(p, y, fft),
             kl_divergence(p, y, Repulsive::Exact),
         );
-        assert!((kl - kl_exact).abs() <= 1.01 * z_bound, "{name}: KL {kl} vs {kl_exact}");
+        assert!(
+            (kl - kl_exact).abs() <= 1.01 * z_bound,
+            "{name}: KL {kl} vs {kl_exact}"
+        );
     }
 }
 
@@ -217,7 +220,10 @@ fn more_interpolation_nodes_are_more_accurate() {
     assert_eq!(interpolation::boxes(10.0, &defaults()), 50);
     // 77 boxes would have the prime factor 7 and 11: the next 5-smooth count.
     assert_eq!(interpolation::boxes(76.5, &defaults()), 80);
-    assert_eq!(interpolation::boxes(1e9, &defaults()), interpolation::MAX_INTERVALS);
+    assert_eq!(
+        interpolation::boxes(1e9, &defaults()),
+        interpolation::MAX_INTERVALS
+    );
 }
 
 /// The fraction of the exact neighbours found (order ignored).
@@ -247,8 +253,7 @@ fn fixture_icons() -> (Vec<f32>, usize) {
     let stats: Vec<(f64, f64)> = (0..dim)
         .map(|d| {
             let mean = rows.iter().map(|r| r[d]).sum::<f64>() / rows.len() as f64;
-            let var =
-                rows.iter().map(|r| (r[d] - mean).powi(2)).sum::<f64>() / rows.len() as f64;
+            let var = rows.iter().map(|r| (r[d] - mean).powi(2)).sum::<f64>() / rows.len() as f64;
             (mean, var.sqrt().max(1e-12))
         })
         .collect();
@@ -344,8 +349,14 @@ fn fft_and_approximate_neighbours_are_the_same_on_one_and_two_threads() {
     let (one, info) = run(1);
     let (two, info_two) = run(2);
     assert_eq!(one, two);
-    assert_eq!(info.kl_divergence.to_bits(), info_two.kl_divergence.to_bits());
-    assert_eq!((info.method, info.knn), (TsneMethod::Fft, TsneKnn::Approximate));
+    assert_eq!(
+        info.kl_divergence.to_bits(),
+        info_two.kl_divergence.to_bits()
+    );
+    assert_eq!(
+        (info.method, info.knn),
+        (TsneMethod::Fft, TsneKnn::Approximate)
+    );
     // Another seed gives other trees.
     let other = in_pool(2, || {
         nndescent::nearest(
@@ -397,7 +408,10 @@ fn auto_resolves_by_size() {
         knn: TsneKnn::Exact,
         ..p.clone()
     };
-    assert_eq!(resolve_knn(TsneMethod::Fft, 10_000, &forced), TsneKnn::Exact);
+    assert_eq!(
+        resolve_knn(TsneMethod::Fft, 10_000, &forced),
+        TsneKnn::Exact
+    );
     let x = clustered(500, 4, 3, 2);
     let (_, info) = tsne(
         &x,
@@ -411,6 +425,8 @@ fn auto_resolves_by_size() {
         &mut |_, _| {},
     )
     .unwrap();
-    assert_eq!((info.method, info.knn), (TsneMethod::Fft, TsneKnn::Approximate));
+    assert_eq!(
+        (info.method, info.knn),
+        (TsneMethod::Fft, TsneKnn::Approximate)
+    );
 }
-

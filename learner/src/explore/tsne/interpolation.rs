@@ -94,10 +94,10 @@ fn lagrange(u: f64, p: usize, out: &mut [f64]) {
 /// Transforms every row (length `m`) of `data` in place.
 fn rows(fft: &Arc<dyn Fft<f64>>, data: &mut [C], m: usize) {
     let scratch = fft.get_inplace_scratch_len();
-    data.par_chunks_mut(m * ROWS)
-        .for_each_init(|| vec![C::default(); scratch], |s, chunk| {
-            fft.process_with_scratch(chunk, s)
-        });
+    data.par_chunks_mut(m * ROWS).for_each_init(
+        || vec![C::default(); scratch],
+        |s, chunk| fft.process_with_scratch(chunk, s),
+    );
 }
 
 /// `dst[r][c] = src[c][r]` for the first `dst.len() / m` rows of `dst` (`src` is `m × m`).
@@ -179,19 +179,16 @@ pub(super) fn repulsion(y: &[[f64; 2]], params: &Interpolation) -> Vec<Repulsion
         }
     };
     let mut kernel = vec![C::default(); m * m];
-    kernel
-        .par_chunks_mut(m)
-        .enumerate()
-        .for_each(|(r, row)| {
-            if let Some(dr) = offset(r) {
-                for (s, v) in row.iter_mut().enumerate() {
-                    if let Some(ds) = offset(s) {
-                        let q = 1.0 + h * h * (dr * dr + ds * ds);
-                        *v = C::new(1.0 / (q * q), 0.0);
-                    }
+    kernel.par_chunks_mut(m).enumerate().for_each(|(r, row)| {
+        if let Some(dr) = offset(r) {
+            for (s, v) in row.iter_mut().enumerate() {
+                if let Some(ds) = offset(s) {
+                    let q = 1.0 + h * h * (dr * dr + ds * ds);
+                    *v = C::new(1.0 / (q * q), 0.0);
                 }
             }
-        });
+        }
+    });
     rows(&forward, &mut kernel, m);
     transpose(&kernel, &mut scratch, m);
     rows(&forward, &mut scratch, m);

@@ -5,8 +5,11 @@
 //! * [`tsne()`]: the embedding of `n` points (row-major `f32`, `dim` coordinates each) and a
 //!   [`TsneInfo`]. Small inputs (up to [`TsneParams::exact_max_points`], default 2,000) use
 //!   dense affinities and the exact gradient; larger ones the sparse affinities over the
-//!   ⌊3·perplexity⌋ exact nearest neighbours and the Barnes–Hut gradient on a quadtree
-//!   (van der Maaten 2014, "Accelerating t-SNE using tree-based algorithms").
+//!   ⌊3·perplexity⌋ nearest neighbours (exact up to [`TsneParams::exact_knn_max_points`],
+//!   random projection trees and NN-descent above) and the Barnes–Hut gradient on a quadtree
+//!   (van der Maaten 2014, "Accelerating t-SNE using tree-based algorithms") or, from
+//!   [`TsneParams::fft_min_points`], the FFT-accelerated interpolation of FIt-SNE (Linderman et
+//!   al. 2019).
 //! * [`affinities()`]: the input affinities P alone, for [`quality::kl_divergence`].
 //! * [`quality`]: trustworthiness, kNN preservation and `KL(P‖Q)` of an embedding.
 //!
@@ -59,9 +62,10 @@ use crate::{Error, Result};
 use gradient::Repulsive;
 use optimise::Phase;
 
-/// The most points [`tsne`] accepts. The largest case is 200,000; the exact neighbour
-/// search grows as n² (about 7 minutes on 2 cores at 250,000 × 40) and P takes about 3 KB per
-/// point. Above it, an error, never a sample.
+/// The most points [`tsne`] accepts. The largest case is 200,000 (measured in
+/// docs/explore.md with the approximate neighbours and the FFT gradient); P takes about 3 KB
+/// per point, and a forced exact neighbour search grows as n² (about 7 minutes on 2 cores at
+/// 250,000 × 40). Above it, an error, never a sample.
 pub const MAX_POINTS: usize = 250_000;
 
 /// The largest coordinate magnitude accepted: squared distances then stay far from `f32`

@@ -49,9 +49,9 @@ fn sq_dist(a: &[f32], b: &[f32]) -> f32 {
     let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
     let (ra, rb) = (ca.remainder(), cb.remainder());
     for (x, y) in ca.zip(cb) {
-        for l in 0..8 {
-            let d = x[l] - y[l];
-            acc[l] += d * d;
+        for ((a, &u), &v) in acc.iter_mut().zip(x).zip(y) {
+            let d = u - v;
+            *a += d * d;
         }
     }
     for (l, (x, y)) in ra.iter().zip(rb).enumerate() {
@@ -87,9 +87,9 @@ fn tree(points: &[f32], dim: usize, leaf: usize, rng: &mut ChaCha8Rng) -> (Vec<u
         }
         let (xa, xb) = (row(members[a]), row(members[b]));
         let mut offset = 0.0f32;
-        for d in 0..dim {
-            normal[d] = xa[d] - xb[d];
-            offset += normal[d] * (xa[d] + xb[d]) / 2.0;
+        for ((w, &u), &v) in normal.iter_mut().zip(xa).zip(xb) {
+            *w = u - v;
+            offset += *w * (u + v) / 2.0;
         }
         // Stable partition: points on `a`'s side first.
         let side = |i: u32| row(i).iter().zip(&normal).map(|(x, w)| x * w).sum::<f32>() >= offset;

@@ -239,7 +239,11 @@ impl TsneParams {
             ));
         }
         if self.max_candidates == 0 {
-            return Err(bad("max_candidates", self.max_candidates, "must be at least 1"));
+            return Err(bad(
+                "max_candidates",
+                self.max_candidates,
+                "must be at least 1",
+            ));
         }
         if !(self.nn_descent_delta.is_finite() && (0.0..=1.0).contains(&self.nn_descent_delta)) {
             return Err(bad(
