@@ -22,6 +22,7 @@
 //! every FFT row is transformed on its own (in fixed chunks), and each point's interpolation is
 //! its own.
 
+use std::cell::RefCell;
 use std::sync::Arc;
 
 use rayon::prelude::*;
@@ -34,8 +35,13 @@ use super::quadtree::Repulsion;
 /// the grids growing without bound (a `6·400`-point FFT side: about 90 MB per grid).
 pub const MAX_INTERVALS: usize = 400;
 
-/// Rows per parallel task of the row transforms.
+/// Rows per parallel task of the row transforms and transposes.
 const ROWS: usize = 8;
+
+thread_local! {
+    /// The planner keeps its plans: the FFT side changes rarely between iterations.
+    static PLANNER: RefCell<FftPlanner<f64>> = RefCell::new(FftPlanner::new());
+}
 
 /// The interpolation parameters (openTSNE's names).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -164,9 +170,8 @@ pub(super) fn repulsion(y: &[[f64; 2]], params: &Interpolation) -> Vec<Repulsion
         }
     }
 
-    let mut planner = FftPlanner::new();
-    let forward = planner.plan_fft_forward(m);
-    let inverse = planner.plan_fft_inverse(m);
+    let (forward, inverse) = PLANNER
+        .with_borrow_mut(|planner| (planner.plan_fft_forward(m), planner.plan_fft_inverse(m)));
     let mut scratch = vec![C::default(); m * m];
 
     // The kernel at node offsets (r, s) mod m; it is even in both axes and symmetric in them,
