@@ -55,6 +55,8 @@ pub mod quality;
 
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 pub use affinity::Affinities;
 pub use params::{TsneInfo, TsneInit, TsneKnn, TsneMethod, TsneParams};
 
@@ -184,6 +186,27 @@ pub fn affinities(points: &[f32], dim: usize, params: &TsneParams) -> Result<Aff
         resolve_knn(method, n, params),
         params,
     ))
+}
+
+/// The fraction of the exact ⌊3·perplexity⌋ nearest neighbours that the approximate search
+/// ([`TsneKnn::Approximate`], with these params) finds, order ignored. Runs both searches, the
+/// exact one O(n²): for benchmarks. Same errors as [`tsne`].
+pub fn approximate_knn_recall(points: &[f32], dim: usize, params: &TsneParams) -> Result<f64> {
+    validate(points, dim, params)?;
+    let k = params.neighbours();
+    let found = nndescent::nearest(points, dim, k, &approximate(params));
+    let exact = knn::nearest(points, dim, k);
+    let hits: usize = found
+        .index
+        .par_chunks(k)
+        .zip(exact.index.par_chunks(k))
+        .map(|(f, e)| {
+            let mut e = e.to_vec();
+            e.sort_unstable();
+            f.iter().filter(|j| e.binary_search(j).is_ok()).count()
+        })
+        .sum();
+    Ok(hits as f64 / exact.index.len() as f64)
 }
 
 /// The t-SNE embedding of `points` (row-major, `dim` coordinates per point) in the plane, one
