@@ -4,7 +4,8 @@ scripts/reference/tsne_reference.py for the install line) on the points `learner
 wrote (raw little-endian f32, row-major), with the same perplexity, iterations, exaggeration and
 seed. Writes the embedding (little-endian f32, n x 2) to OUT and prints one JSON line:
 {"seconds": wall time of fit, "cpu_seconds": user + system time of fit (all threads), "kl_divergence": openTSNE's own, "method": the negative-gradient
-method, "maxrss_kb": peak resident size of this process (resource.getrusage, KB),
+method, "maxrss_kb": peak resident size of this process (VmHWM of /proc/self/status, KB: the
+getrusage figure would carry over the forking Rust process's peak across exec),
 "opentsne": version}.
 
 Usage: python3 scripts/bench/tsne_python.py POINTS.f32 DIM OUT.f32 PERPLEXITY N_ITER EE_ITER
@@ -20,6 +21,14 @@ import time
 
 import numpy as np
 import openTSNE
+
+
+def peak_rss_kb():
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1])
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 
 
 def main():
@@ -52,7 +61,7 @@ def main():
                 "cpu_seconds": cpu,
                 "kl_divergence": float(y.kl_divergence),
                 "method": resolved,
-                "maxrss_kb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
+                "maxrss_kb": peak_rss_kb(),
                 "opentsne": openTSNE.__version__,
             }
         )

@@ -9,7 +9,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use learner::explore::tsne::quality::{self, kl_divergence, knn_preservation, trustworthiness};
-use learner::explore::tsne::{TsneParams, affinities, tsne};
+use learner::explore::tsne::{TsneParams, affinities, approximate_knn_recall, tsne};
 use learner::metric::Model;
 use learner::search::{StyleMatrix, Weighting};
 use learner::table::read_features;
@@ -58,6 +58,9 @@ pub struct BenchTsneArgs {
     /// Skip the openTSNE side.
     #[arg(long)]
     no_python: bool,
+    /// Also measure the approximate neighbours' recall against the exact search (O(n²)).
+    #[arg(long)]
+    knn_recall: bool,
     /// The Python side.
     #[arg(long, default_value = "scripts/bench/tsne_python.py")]
     python_script: PathBuf,
@@ -193,7 +196,7 @@ pub fn run(a: &BenchTsneArgs) -> Result<()> {
     let cpu = cpu_seconds();
     let (y, info) = pool.install(|| tsne(&x, dim, &params, &mut |_, _| {}))?;
     let ours = Side {
-        name: format!("learner t-SNE ({:?})", info.method),
+        name: format!("learner t-SNE ({:?}, {:?} kNN)", info.method, info.knn),
         seconds: t.elapsed().as_secs_f64(),
         cpu_seconds: cpu_seconds() - cpu,
         kl_own: info.kl_divergence,
@@ -204,6 +207,15 @@ pub fn run(a: &BenchTsneArgs) -> Result<()> {
         "  affinities {:.2} s, start {:.2} s, descent {:.2} s",
         info.affinity_seconds, info.init_seconds, info.optimise_seconds
     );
+    if a.knn_recall {
+        let t = Instant::now();
+        let recall = pool.install(|| approximate_knn_recall(&x, dim, &params))?;
+        println!(
+            "approximate kNN recall (k = {}) against the exact search: {recall:.4} ({:.1} s for both searches)",
+            params.neighbours(),
+            t.elapsed().as_secs_f64()
+        );
+    }
     let mut sides = vec![ours];
     if !a.no_python {
         sides.push(python(a, &x, dim, &params)?);

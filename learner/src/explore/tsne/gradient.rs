@@ -5,14 +5,15 @@
 //! `∂C/∂y_i = 4 (α Σ_j p_ij w_ij (y_i − y_j) − (1/Z) Σ_j w_ij² (y_i − y_j))`,
 //! `w_ij = 1/(1 + ‖y_i − y_j‖²)`, `Z = Σ_{k≠l} w_kl`,
 //!
-//! with `α` the exaggeration. The repulsive sums are exact (every pair) or Barnes–Hut
-//! ([`QuadTree`]). Each point's sums run in a fixed order on whichever thread takes it, and `Z`
+//! with `α` the exaggeration. The repulsive sums are exact (every pair), Barnes–Hut
+//! ([`QuadTree`]) or interpolated on a grid with FFTs ([`interpolation`], FIt-SNE). Each point's sums run in a fixed order on whichever thread takes it, and `Z`
 //! is summed over the points in index order afterwards, so the gradient does not depend on the
 //! thread count.
 
 use rayon::prelude::*;
 
 use super::affinity::Affinities;
+use super::interpolation::{self, Interpolation};
 use super::quadtree::{QuadTree, Repulsion};
 
 /// How the repulsive sums are computed.
@@ -22,6 +23,8 @@ pub(super) enum Repulsive {
     Exact,
     /// Barnes–Hut with this `θ`.
     BarnesHut(f64),
+    /// FFT-accelerated interpolation (FIt-SNE).
+    Fft(Interpolation),
 }
 
 fn exact_repulsion(i: usize, y: &[[f64; 2]]) -> Repulsion {
@@ -54,6 +57,7 @@ fn repulsion(y: &[[f64; 2]], method: Repulsive) -> (Vec<Repulsion>, f64) {
                 .map(|i| tree.repulsion(i, y, theta))
                 .collect()
         }
+        Repulsive::Fft(params) => interpolation::repulsion(y, &params),
     };
     let z = forces.iter().map(|r| r.z).sum();
     (forces, z)

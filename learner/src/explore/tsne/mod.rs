@@ -5,8 +5,11 @@
 //! * [`tsne()`]: the embedding of `n` points (row-major `f32`, `dim` coordinates each) and a
 //!   [`TsneInfo`]. Small inputs (up to [`TsneParams::exact_max_points`], default 2,000) use
 //!   dense affinities and the exact gradient; larger ones the sparse affinities over the
-//!   ⌊3·perplexity⌋ exact nearest neighbours and the Barnes–Hut gradient on a quadtree
-//!   (van der Maaten 2014, "Accelerating t-SNE using tree-based algorithms").
+//!   ⌊3·perplexity⌋ nearest neighbours (exact up to [`TsneParams::exact_knn_max_points`],
+//!   random projection trees and NN-descent above) and the Barnes–Hut gradient on a quadtree
+//!   (van der Maaten 2014, "Accelerating t-SNE using tree-based algorithms") or, from
+//!   [`TsneParams::fft_min_points`], the FFT-accelerated interpolation of FIt-SNE (Linderman et
+//!   al. 2019).
 //! * [`affinities()`]: the input affinities P alone, for [`quality::kl_divergence`].
 //! * [`quality`]: trustworthiness, kNN preservation and `KL(P‖Q)` of an embedding.
 //!
@@ -42,7 +45,9 @@
 mod affinity;
 mod gradient;
 mod init;
+mod interpolation;
 mod knn;
+mod nndescent;
 mod optimise;
 mod params;
 mod quadtree;
@@ -50,16 +55,19 @@ pub mod quality;
 
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 pub use affinity::Affinities;
-pub use params::{TsneInfo, TsneInit, TsneMethod, TsneParams};
+pub use params::{TsneInfo, TsneInit, TsneKnn, TsneMethod, TsneParams};
 
 use crate::{Error, Result};
 use gradient::Repulsive;
 use optimise::Phase;
 
-/// The most points [`tsne`] accepts. The largest case is 200,000; the exact neighbour
-/// search grows as n² (about 7 minutes on 2 cores at 250,000 × 40) and P takes about 3 KB per
-/// point. Above it, an error, never a sample.
+/// The most points [`tsne`] accepts. The largest case is 200,000 (measured in
+/// docs/explore.md with the approximate neighbours and the FFT gradient); P takes about 3 KB
+/// per point, and a forced exact neighbour search grows as n² (about 7 minutes on 2 cores at
+/// 250,000 × 40). Above it, an error, never a sample.
 pub const MAX_POINTS: usize = 250_000;
 
 /// The largest coordinate magnitude accepted: squared distances then stay far from `f32`
@@ -114,18 +122,55 @@ fn validate(points: &[f32], dim: usize, params: &TsneParams) -> Result<usize> {
 fn resolve(method: TsneMethod, n: usize, params: &TsneParams) -> TsneMethod {
     match method {
         TsneMethod::Auto if n <= params.exact_max_points => TsneMethod::Exact,
+        TsneMethod::Auto if n >= params.fft_min_points => TsneMethod::Fft,
         TsneMethod::Auto => TsneMethod::BarnesHut,
         m => m,
     }
 }
 
-fn build_affinities(points: &[f32], dim: usize, method: TsneMethod, perplexity: f64) -> Affinities {
-    let neighbours = match method {
-        TsneMethod::Exact => knn::all_pairs(points, dim),
-        _ => knn::nearest(points, dim, (3.0 * perplexity).floor() as usize),
+fn resolve_knn(method: TsneMethod, n: usize, params: &TsneParams) -> TsneKnn {
+    match (method, params.knn) {
+        (TsneMethod::Exact, _) => TsneKnn::Exact,
+        (_, TsneKnn::Auto) if n <= params.exact_knn_max_points => TsneKnn::Exact,
+        (_, TsneKnn::Auto) => TsneKnn::Approximate,
+        (_, k) => k,
+    }
+}
+
+fn build_affinities(
+    points: &[f32],
+    dim: usize,
+    method: TsneMethod,
+    knn: TsneKnn,
+    params: &TsneParams,
+) -> Affinities {
+    let k = params.neighbours();
+    let neighbours = match (method, knn) {
+        (TsneMethod::Exact, _) => knn::all_pairs(points, dim),
+        (_, TsneKnn::Approximate) => nndescent::nearest(points, dim, k, &approximate(params)),
+        _ => knn::nearest(points, dim, k),
     };
-    let (conditional, _) = affinity::conditional(&neighbours, perplexity);
+    let (conditional, _) = affinity::conditional(&neighbours, params.perplexity);
     affinity::symmetrise(&neighbours, &conditional)
+}
+
+fn approximate(params: &TsneParams) -> nndescent::Approximate {
+    nndescent::Approximate {
+        n_trees: params.n_trees,
+        leaf_size: params.leaf_size,
+        n_iter: params.nn_descent_iter,
+        max_candidates: params.max_candidates,
+        delta: params.nn_descent_delta,
+        seed: params.seed,
+    }
+}
+
+fn interpolation(params: &TsneParams) -> interpolation::Interpolation {
+    interpolation::Interpolation {
+        points: params.n_interpolation_points,
+        min_intervals: params.min_num_intervals,
+        ints_in_interval: params.ints_in_interval,
+    }
 }
 
 /// The joint input affinities P that [`tsne`] would use for these points and params (dense for
@@ -133,12 +178,35 @@ fn build_affinities(points: &[f32], dim: usize, method: TsneMethod, perplexity: 
 /// [`tsne`].
 pub fn affinities(points: &[f32], dim: usize, params: &TsneParams) -> Result<Affinities> {
     let n = validate(points, dim, params)?;
+    let method = resolve(params.method, n, params);
     Ok(build_affinities(
         points,
         dim,
-        resolve(params.method, n, params),
-        params.perplexity,
+        method,
+        resolve_knn(method, n, params),
+        params,
     ))
+}
+
+/// The fraction of the exact ⌊3·perplexity⌋ nearest neighbours that the approximate search
+/// ([`TsneKnn::Approximate`], with these params) finds, order ignored. Runs both searches, the
+/// exact one O(n²): for benchmarks. Same errors as [`tsne`].
+pub fn approximate_knn_recall(points: &[f32], dim: usize, params: &TsneParams) -> Result<f64> {
+    validate(points, dim, params)?;
+    let k = params.neighbours();
+    let found = nndescent::nearest(points, dim, k, &approximate(params));
+    let exact = knn::nearest(points, dim, k);
+    let hits: usize = found
+        .index
+        .par_chunks(k)
+        .zip(exact.index.par_chunks(k))
+        .map(|(f, e)| {
+            let mut e = e.to_vec();
+            e.sort_unstable();
+            f.iter().filter(|j| e.binary_search(j).is_ok()).count()
+        })
+        .sum();
+    Ok(hits as f64 / exact.index.len() as f64)
 }
 
 /// The t-SNE embedding of `points` (row-major, `dim` coordinates per point) in the plane, one
@@ -157,8 +225,9 @@ pub fn tsne(
 ) -> Result<(Vec<[f32; 2]>, TsneInfo)> {
     let n = validate(points, dim, params)?;
     let method = resolve(params.method, n, params);
+    let knn = resolve_knn(method, n, params);
     let t = Instant::now();
-    let p = build_affinities(points, dim, method, params.perplexity);
+    let p = build_affinities(points, dim, method, knn, params);
     let affinity_seconds = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut y = init::initial(points, dim, params.init, params.seed);
@@ -168,6 +237,7 @@ pub fn tsne(
         .unwrap_or_else(|| (n as f64 / params.early_exaggeration / 4.0).max(50.0));
     let repulsive = match method {
         TsneMethod::Exact => Repulsive::Exact,
+        TsneMethod::Fft => Repulsive::Fft(interpolation(params)),
         _ => Repulsive::BarnesHut(params.theta),
     };
     let phases = [
@@ -212,6 +282,7 @@ pub fn tsne(
             TsneMethod::Exact => n - 1,
             _ => params.neighbours(),
         },
+        knn,
         learning_rate,
         affinity_seconds,
         init_seconds,
@@ -226,6 +297,9 @@ mod tests;
 
 #[cfg(test)]
 mod error_tests;
+
+#[cfg(test)]
+mod fast_tests;
 
 /// The embeddings against openTSNE's and scikit-learn's (reference values of
 /// `scripts/reference/tsne_reference.py`).

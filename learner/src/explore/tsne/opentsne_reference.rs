@@ -12,7 +12,7 @@ use std::path::Path;
 use serde_json::Value;
 
 use super::quality::{kl_divergence, knn_preservation, trustworthiness};
-use super::{TsneMethod, TsneParams, affinities, tsne};
+use super::{TsneKnn, TsneMethod, TsneParams, affinities, tsne};
 use crate::table::read_features;
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data");
@@ -152,13 +152,20 @@ fn quality_measures_match_sklearn_on_the_opentsne_embeddings() {
 /// Ours (default params, dense P and exact gradient at these sizes, or Barnes–Hut) is at least
 /// as faithful as openTSNE within the margins, and keeps the blobs apart.
 fn assert_as_good_as_opentsne(name: &str, method: TsneMethod) {
+    assert_as_good_with(
+        name,
+        TsneParams {
+            method,
+            ..TsneParams::default()
+        },
+    );
+}
+
+fn assert_as_good_with(name: &str, params: TsneParams) {
+    let method = params.method;
     let reference = reference();
     let case = case(&reference, name);
     let (x, dim) = points(case);
-    let params = TsneParams {
-        method,
-        ..TsneParams::default()
-    };
     let (y, info) = tsne(&x, dim, &params, &mut |_, _| {}).unwrap();
     assert_eq!(info.iterations, 750);
     let theirs = &case["opentsne"];
@@ -213,4 +220,27 @@ fn exact_tsne_is_as_good_as_opentsne_on_fixture_icons() {
 #[test]
 fn barnes_hut_tsne_is_as_good_as_opentsne_on_fixture_icons() {
     assert_as_good_as_opentsne("fixture_standardised", TsneMethod::BarnesHut);
+}
+
+#[test]
+fn fft_tsne_is_as_good_as_opentsne_on_blobs() {
+    assert_as_good_as_opentsne("blobs", TsneMethod::Fft);
+}
+
+#[test]
+fn fft_tsne_is_as_good_as_opentsne_on_fixture_icons() {
+    assert_as_good_as_opentsne("fixture_standardised", TsneMethod::Fft);
+}
+
+/// The FFT gradient over approximate neighbours (the large-input default) on the blobs.
+#[test]
+fn fft_tsne_with_approximate_neighbours_is_as_good_as_opentsne_on_blobs() {
+    assert_as_good_with(
+        "blobs",
+        TsneParams {
+            method: TsneMethod::Fft,
+            knn: TsneKnn::Approximate,
+            ..TsneParams::default()
+        },
+    );
 }
