@@ -6,7 +6,8 @@
 use super::IconsetSettings;
 use crate::error::{AppError, Result};
 use crate::store::ids::ItemId;
-use crate::studies::study::{DrawnPool, NewTuple, StudySettings};
+use crate::studies::mashup::pool::one_task_per_hit;
+use crate::studies::study::{DrawnPool, StudySettings};
 
 /// The instructions of a new icon-set study (the task itself is shown above the tray).
 pub const INSTRUCTIONS: &str = "\
@@ -49,31 +50,12 @@ pub fn draw(settings: &StudySettings, placeholder: Option<ItemId>) -> Result<Dra
         ));
     };
     iconset.validate()?;
-    let fixed = [
-        ("questions_per_hit", settings.questions_per_hit, 1),
-        ("controls_per_hit", settings.controls_per_hit, 0),
-        ("training_questions", settings.training_questions, 0),
-        ("replication", settings.replication, 1),
-    ];
-    for (field, got, want) in fixed {
-        if got != want {
-            return Err(AppError::BadRequest(format!(
-                "{field}: {got}, but an icon-set HIT is one tray of sets ({field} = {want})"
-            )));
-        }
-    }
-    let Some(item) = placeholder else {
-        return Err(AppError::BadRequest("the library has no items".into()));
-    };
-    let tuple = NewTuple {
-        a: item,
-        b: item,
-        c: item,
-    };
-    Ok(DrawnPool {
-        main: vec![tuple; settings.tuples as usize],
-        ..DrawnPool::default()
-    })
+    one_task_per_hit(
+        settings,
+        placeholder,
+        "an icon-set HIT is one tray of sets",
+        "the library has no items",
+    )
 }
 
 #[cfg(test)]

@@ -12,8 +12,9 @@ use std::collections::HashMap;
 
 use sqlx::Row;
 
+use super::Condition;
+use super::drawn::{self, ConditionTable};
 pub use super::events::{Event, check_add, check_background, record_event};
-use super::{Condition, condition_at};
 use crate::error::{AppError, Result};
 use crate::store::db::{Backend, Db, now_ms};
 use crate::store::ids::{AssignmentId, ItemId, StudyId};
@@ -125,7 +126,7 @@ pub(crate) enum Locked {
 }
 
 /// The condition of `assignment`, drawing it (the study's next place in its balanced sequence,
-/// [`condition_at`]) on the first call.
+/// [`condition_at`](super::condition_at)) on the first call.
 pub async fn assign_condition(
     db: &Db,
     study: StudyId,
@@ -136,45 +137,24 @@ pub async fn assign_condition(
         return Ok(c);
     }
     let mut tx = db.begin_write().await?;
-    lock_row(&mut tx, db.backend, Locked::Study, study.0).await?;
-    // Re-read inside the write transaction: another request of the same worker may have won.
-    let existing = sqlx::query("SELECT condition FROM mashup_conditions WHERE assignment_id = $1")
-        .bind(assignment.0)
-        .fetch_optional(&mut *tx)
-        .await?;
-    if let Some(r) = existing {
-        return Condition::from_stored(&r.try_get::<String, _>("condition")?);
-    }
-    let next: i64 = sqlx::query(
-        "SELECT COALESCE(MAX(seq) + 1, 0) AS next FROM mashup_conditions WHERE study_id = $1",
+    let (condition, drawn) = drawn::draw_in(
+        &mut tx,
+        db.backend,
+        ConditionTable::Mashup,
+        study,
+        seed,
+        assignment,
     )
-    .bind(study.0)
-    .fetch_one(&mut *tx)
-    .await?
-    .try_get("next")?;
-    let condition = condition_at(seed, next as u64);
-    sqlx::query(
-        "INSERT INTO mashup_conditions (assignment_id, study_id, seq, condition) \
-         VALUES ($1, $2, $3, $4)",
-    )
-    .bind(assignment.0)
-    .bind(study.0)
-    .bind(next)
-    .bind(condition.as_str())
-    .execute(&mut *tx)
     .await?;
-    tx.commit().await?;
+    if drawn {
+        tx.commit().await?;
+    }
     Ok(condition)
 }
 
 /// The condition of `assignment`, if drawn.
 pub async fn condition_of(db: &Db, assignment: AssignmentId) -> Result<Option<Condition>> {
-    let row = sqlx::query("SELECT condition FROM mashup_conditions WHERE assignment_id = $1")
-        .bind(assignment.0)
-        .fetch_optional(&db.pool)
-        .await?;
-    row.map(|r| Condition::from_stored(&r.try_get::<String, _>("condition")?))
-        .transpose()
+    drawn::condition_of(db, ConditionTable::Mashup, assignment).await
 }
 
 /// Logs a search the server answered and returns its number (1, 2, … per assignment).

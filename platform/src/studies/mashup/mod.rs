@@ -14,6 +14,7 @@
 mod conditions;
 #[cfg(test)]
 mod db_tests;
+pub mod drawn;
 pub mod events;
 pub mod log;
 pub mod pool;

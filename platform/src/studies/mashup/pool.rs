@@ -48,6 +48,24 @@ pub fn draw(settings: &StudySettings, placeholder: Option<ItemId>) -> Result<Dra
         ));
     };
     mashup.validate()?;
+    one_task_per_hit(
+        settings,
+        placeholder,
+        "a mash-up HIT is one composition task",
+        "the library has no items to compose with",
+    )
+}
+
+/// The pool of a study whose HIT is one task with no known answer (the mash-up and icon-set
+/// studies): `settings.tuples` main tuples of the `placeholder` item, no controls or practice.
+/// The HIT shape must say so (`hit` names the task in the message); `no_items` is the message
+/// for a library without items.
+pub(crate) fn one_task_per_hit(
+    settings: &StudySettings,
+    placeholder: Option<ItemId>,
+    hit: &str,
+    no_items: &str,
+) -> Result<DrawnPool> {
     let fixed = [
         ("questions_per_hit", settings.questions_per_hit, 1),
         ("controls_per_hit", settings.controls_per_hit, 0),
@@ -57,14 +75,12 @@ pub fn draw(settings: &StudySettings, placeholder: Option<ItemId>) -> Result<Dra
     for (field, got, want) in fixed {
         if got != want {
             return Err(AppError::BadRequest(format!(
-                "{field}: {got}, but a mash-up HIT is one composition task ({field} = {want})"
+                "{field}: {got}, but {hit} ({field} = {want})"
             )));
         }
     }
     let Some(item) = placeholder else {
-        return Err(AppError::BadRequest(
-            "the library has no items to compose with".into(),
-        ));
+        return Err(AppError::BadRequest(no_items.into()));
     };
     let tuple = NewTuple {
         a: item,

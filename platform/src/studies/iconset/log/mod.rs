@@ -17,7 +17,7 @@ use crate::error::{AppError, Result};
 use crate::search::cache::Built;
 use crate::store::db::{Db, now_ms};
 use crate::store::ids::{AssignmentId, ItemId, LibraryId, StudyId};
-use crate::studies::mashup::condition_at;
+use crate::studies::mashup::drawn::{self, ConditionTable};
 use crate::studies::mashup::log::{Locked, lock_row};
 
 async fn read(conn: &mut sqlx::AnyConnection, assignment: AssignmentId) -> Result<Vec<Logged>> {
@@ -93,17 +93,12 @@ pub async fn tray(db: &Db, settings: &IconsetSettings, assignment: AssignmentId)
 
 /// The condition of `assignment`, if drawn.
 pub async fn condition_of(db: &Db, assignment: AssignmentId) -> Result<Option<Condition>> {
-    let row = sqlx::query("SELECT condition FROM iconset_conditions WHERE assignment_id = $1")
-        .bind(assignment.0)
-        .fetch_optional(&db.pool)
-        .await?;
-    row.map(|r| Condition::from_stored(&r.try_get::<String, _>("condition")?))
-        .transpose()
+    drawn::condition_of(db, ConditionTable::Iconset, assignment).await
 }
 
 /// The condition of `assignment`. On the first call it is drawn (the study's next place in
-/// its balanced sequence, [`condition_at`]) and the task's `open` event is logged in the same
-/// transaction: set 1 starts now.
+/// its balanced sequence) and the task's `open` event is logged in the same transaction: set 1
+/// starts now.
 pub async fn start(
     db: &Db,
     study: StudyId,
@@ -114,32 +109,18 @@ pub async fn start(
         return Ok(c);
     }
     let mut tx = db.begin_write().await?;
-    lock_row(&mut tx, db.backend, Locked::Study, study.0).await?;
-    let existing = sqlx::query("SELECT condition FROM iconset_conditions WHERE assignment_id = $1")
-        .bind(assignment.0)
-        .fetch_optional(&mut *tx)
-        .await?;
-    if let Some(r) = existing {
-        return Condition::from_stored(&r.try_get::<String, _>("condition")?);
-    }
-    let next: i64 = sqlx::query(
-        "SELECT COALESCE(MAX(seq) + 1, 0) AS next FROM iconset_conditions WHERE study_id = $1",
+    let (condition, drawn) = drawn::draw_in(
+        &mut tx,
+        db.backend,
+        ConditionTable::Iconset,
+        study,
+        seed,
+        assignment,
     )
-    .bind(study.0)
-    .fetch_one(&mut *tx)
-    .await?
-    .try_get("next")?;
-    let condition = condition_at(seed, next as u64);
-    sqlx::query(
-        "INSERT INTO iconset_conditions (assignment_id, study_id, seq, condition) \
-         VALUES ($1, $2, $3, $4)",
-    )
-    .bind(assignment.0)
-    .bind(study.0)
-    .bind(next)
-    .bind(condition.as_str())
-    .execute(&mut *tx)
     .await?;
+    if !drawn {
+        return Ok(condition);
+    }
     let open = Logged {
         kind: Kind::Open,
         set: 1,
