@@ -41,6 +41,7 @@ mod grid;
 pub mod image;
 pub mod io;
 pub mod kmeans;
+pub mod lightfield;
 pub mod metrics;
 pub mod plot;
 pub mod progress;
