@@ -260,7 +260,7 @@ mod tests {
             LightField::from_views(1, 2, &[a.clone(), b]),
             Err(Error::ShapeMismatch { .. })
         ));
-        assert!(LightField::from_views(1, 2, &[a.clone()]).is_err());
+        assert!(LightField::from_views(1, 2, std::slice::from_ref(&a)).is_err());
         assert!(LightField::from_views(1, 2, &[a, Image::new(4, 4, 1)]).is_err());
     }
 }
