@@ -7,5 +7,6 @@
 //! across views.
 
 mod field;
+pub mod io;
 
 pub use field::LightField;
