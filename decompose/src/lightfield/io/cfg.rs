@@ -71,7 +71,7 @@ impl HciParameters {
         };
         let count = |key: &str| -> Result<usize> {
             let v = number(key)?.ok_or_else(|| missing(key))?;
-            if v >= 1.0 && v <= 1000.0 && v.fract() == 0.0 {
+            if (1.0..=1000.0).contains(&v) && v.fract() == 0.0 {
                 Ok(v as usize)
             } else {
                 Err(Error::Format {
