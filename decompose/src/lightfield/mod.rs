@@ -6,7 +6,9 @@
 //! method filters the whole 4D volume at once so that reflectance and shading stay coherent
 //! across views.
 
+pub mod cues;
 mod field;
 pub mod io;
+pub mod retinex;
 
 pub use field::LightField;

@@ -1,0 +1,231 @@
+//! The two cues of the light-field Retinex (thesis §4.3, eqs. 4.10–4.12), as weights on the
+//! 4-neighbour pairs of one view.
+//!
+//! - Albedo cue `ω^a ∈ [0, 1]`: how likely the pair straddles a reflectance change. From the
+//!   angle between the colour lines (RGB directions) of the two pixels of the filtered
+//!   chromaticity `R₀ = L̂ / ‖L̂‖`: shading scales a colour along its line, so only a reflectance
+//!   change turns it; `ω^a = 1` when the angle exceeds `θ_a` = 0.04 rad (eq. 4.10). Black and
+//!   white have no reliable colour line (noise; clipping), so the change of their CIELab
+//!   probabilities `g^w` (white: L* above `τ₁`, low chroma) and `g^b` (black: L* below `τ₂`)
+//!   across the pair is a second albedo cue, `ω^a = max(ω^a, |Δg^w|, |Δg^b|)` (eq. 4.11).
+//! - Occlusion cue `ω^occ`: `ω_occ` = 0.01 where the normalised depth jumps by more than
+//!   `ΔD_occ` = 0.02 between the two pixels, 1 elsewhere (eq. 4.12): at an occlusion both
+//!   layers can change, so the pair's Retinex terms are nearly switched off.
+//!
+//! Interpretation (the thesis writes the white/black cue per pixel): applied per pixel, a white
+//! wall with a light gradient across it would have all its shading pushed into the reflectance;
+//! the change across the pair keeps the cue where a white or black region meets another.
+
+use crate::color::linear_to_lab;
+
+/// Weights of the horizontal and vertical 4-neighbour pairs of a `width × height` view:
+/// `horizontal[y·w + x]` couples `(x, y)`–`(x+1, y)` (last column unused), `vertical[y·w + x]`
+/// couples `(x, y)`–`(x, y+1)` (last row unused).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PairWeights {
+    /// View width.
+    pub width: usize,
+    /// View height.
+    pub height: usize,
+    /// Pairs to the right neighbour.
+    pub horizontal: Vec<f32>,
+    /// Pairs to the neighbour below.
+    pub vertical: Vec<f32>,
+}
+
+impl PairWeights {
+    /// Every pair weighted `value`.
+    pub fn constant(width: usize, height: usize, value: f32) -> Self {
+        Self {
+            width,
+            height,
+            horizontal: vec![value; width * height],
+            vertical: vec![value; width * height],
+        }
+    }
+
+    /// Weights from a function of the two pixel indices of each pair.
+    pub fn from_pairs(width: usize, height: usize, f: impl Fn(usize, usize) -> f32) -> Self {
+        let mut out = Self::constant(width, height, 0.0);
+        for y in 0..height {
+            for x in 0..width {
+                let p = y * width + x;
+                if x + 1 < width {
+                    out.horizontal[p] = f(p, p + 1);
+                }
+                if y + 1 < height {
+                    out.vertical[p] = f(p, p + width);
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Parameters of the cues; `Default` holds the thesis' values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CueParams {
+    /// `θ_a`: colour-line angle (radians) above which a pair is a reflectance change, eq. 4.10.
+    /// Default 0.04.
+    pub theta_a: f32,
+    /// `τ₁`: L*/100 above which a pixel starts to count as white, eq. 4.11. Default 0.85.
+    pub tau_white: f32,
+    /// `τ₂`: L*/100 below which a pixel starts to count as black, eq. 4.11. Default 0.05.
+    pub tau_black: f32,
+    /// Chroma (CIELab `√(a²+b²)`) at which a bright pixel stops counting as white. Not given in
+    /// the thesis; default 20.
+    pub white_chroma: f32,
+    /// `ω_occ`: weight of the pairs across an occlusion, eq. 4.12. Default 0.01.
+    pub omega_occ: f32,
+    /// `ΔD_occ`: jump of the normalised depth (range of the light field mapped to [0, 1]) that
+    /// marks an occlusion, eq. 4.12. Default 0.02.
+    pub depth_step: f32,
+}
+
+impl Default for CueParams {
+    fn default() -> Self {
+        Self {
+            theta_a: 0.04,
+            tau_white: 0.85,
+            tau_black: 0.05,
+            white_chroma: 20.0,
+            omega_occ: 0.01,
+            depth_step: 0.02,
+        }
+    }
+}
+
+/// Angle (radians) between two RGB directions; 0 when either is black.
+pub fn colour_line_angle(a: [f32; 3], b: [f32; 3]) -> f32 {
+    let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let na = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    let nb = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+    if na <= f32::MIN_POSITIVE || nb <= f32::MIN_POSITIVE {
+        return 0.0;
+    }
+    (dot / (na * nb)).clamp(-1.0, 1.0).acos()
+}
+
+/// `(g^w, g^b)`: the probabilities that a linear RGB pixel (white = 1) is white or black,
+/// ramps on CIELab lightness, eq. 4.11: `g^w` rises from 0 at `L*/100 = τ₁` to 1 at 1 and fades
+/// with chroma; `g^b` rises from 0 at `τ₂` to 1 at 0.
+pub fn white_black(p: [f32; 3], params: &CueParams) -> (f32, f32) {
+    let [l, a, b] = linear_to_lab(p);
+    let l = l / 100.0;
+    let chroma = (a * a + b * b).sqrt();
+    let white = ((l - params.tau_white) / (1.0 - params.tau_white)).clamp(0.0, 1.0)
+        * (1.0 - chroma / params.white_chroma).clamp(0.0, 1.0);
+    let black = ((params.tau_black - l) / params.tau_black).clamp(0.0, 1.0);
+    (white, black)
+}
+
+/// The albedo cue `ω^a` of one view (eqs. 4.10–4.11). `chroma` is the view of `R₀` (any
+/// positive scale per pixel; only directions matter), `intensity_rgb` the view of `L̂` scaled
+/// so that white is 1 (for the CIELab probabilities); `white_black_cue` off is the ablation
+/// without eq. 4.11.
+pub fn albedo_cue(
+    width: usize,
+    height: usize,
+    chroma: &[f32],
+    intensity_rgb: &[f32],
+    params: &CueParams,
+    white_black_cue: bool,
+) -> PairWeights {
+    let rgb = |buf: &[f32], i: usize| [buf[3 * i], buf[3 * i + 1], buf[3 * i + 2]];
+    let wb: Vec<(f32, f32)> = if white_black_cue {
+        (0..width * height)
+            .map(|i| white_black(rgb(intensity_rgb, i), params))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    PairWeights::from_pairs(width, height, |p, q| {
+        let angle = colour_line_angle(rgb(chroma, p), rgb(chroma, q));
+        let mut w = if angle > params.theta_a { 1.0 } else { 0.0 };
+        if white_black_cue {
+            let ((wp, bp), (wq, bq)) = (wb[p], wb[q]);
+            w = f32::max(w, f32::max((wp - wq).abs(), (bp - bq).abs()));
+        }
+        w
+    })
+}
+
+/// The occlusion cue `ω^occ` of one view (eq. 4.12) from its disparity (or depth) map and the
+/// light field's disparity range `(min, max)` used to normalise it to [0, 1].
+pub fn occlusion_cue(
+    width: usize,
+    height: usize,
+    disparity: &[f32],
+    range: (f32, f32),
+    params: &CueParams,
+) -> PairWeights {
+    let span = (range.1 - range.0).max(f32::MIN_POSITIVE);
+    PairWeights::from_pairs(width, height, |p, q| {
+        if ((disparity[p] - disparity[q]) / span).abs() > params.depth_step {
+            params.omega_occ
+        } else {
+            1.0
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn colour_lines_see_chroma_changes_not_intensity_changes() {
+        let p = CueParams::default();
+        // Same direction at any intensity (shading): angle 0.
+        assert!(colour_line_angle([0.2, 0.4, 0.1], [0.6, 1.2, 0.3]) < 1e-3);
+        // Orthogonal primaries: π/2.
+        let right = colour_line_angle([1.0, 0.0, 0.0], [0.0, 0.5, 0.0]);
+        assert!((right - std::f32::consts::FRAC_PI_2).abs() < 1e-6);
+        // A small turn just under and just over θ_a = 0.04 rad.
+        let turn = |t: f32| [t.cos(), t.sin(), 0.0];
+        let chroma: Vec<f32> = [turn(0.0), turn(0.03), turn(0.08)]
+            .iter()
+            .flatten()
+            .copied()
+            .collect();
+        let w = albedo_cue(3, 1, &chroma, &chroma, &p, false);
+        assert_eq!(&w.horizontal[..2], &[0.0, 1.0]);
+        // Black pixels have no colour line and give no angle cue.
+        assert_eq!(colour_line_angle([0.0; 3], [1.0, 0.0, 0.0]), 0.0);
+    }
+
+    #[test]
+    fn white_and_black_probabilities_follow_lightness_and_chroma() {
+        let p = CueParams::default();
+        let (w, b) = white_black([1.0; 3], &p);
+        assert!(w > 0.999 && b == 0.0, "{w} {b}");
+        assert_eq!(white_black([0.0; 3], &p), (0.0, 1.0));
+        // Mid grey (L* ≈ 53) is neither; saturated bright red is not white.
+        assert_eq!(white_black([0.21; 3], &p), (0.0, 0.0));
+        assert_eq!(white_black([1.0, 0.0, 0.0], &p).0, 0.0);
+        // A white pixel beside a mid-grey one: same colour line, so only eq. 4.11 marks the
+        // pair; the ablation leaves it unmarked.
+        let chroma = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
+        let rgb = [1.0, 1.0, 1.0, 0.21, 0.21, 0.21];
+        assert!(albedo_cue(2, 1, &chroma, &rgb, &p, true).horizontal[0] > 0.999);
+        assert_eq!(
+            albedo_cue(2, 1, &chroma, &rgb, &p, false).horizontal[0],
+            0.0
+        );
+    }
+
+    #[test]
+    fn occlusion_cue_marks_depth_steps_only() {
+        let p = CueParams::default();
+        // Disparities 0, 0.01, 0.5, 0.5 over a range of 1: only the middle jump is an occlusion.
+        let d = [0.0, 0.01, 0.5, 0.5];
+        let w = occlusion_cue(4, 1, &d, (0.0, 1.0), &p);
+        assert_eq!(&w.horizontal[..3], &[1.0, 0.01, 1.0]);
+        // The same jump on a range 100 times wider is no longer an occlusion.
+        let w = occlusion_cue(4, 1, &d, (0.0, 100.0), &p);
+        assert_eq!(&w.horizontal[..3], &[1.0, 1.0, 1.0]);
+        // Vertical pairs are indexed by the upper pixel.
+        let w = occlusion_cue(1, 2, &[0.0, 1.0], (0.0, 1.0), &p);
+        assert_eq!(w.vertical[0], 0.01);
+    }
+}
