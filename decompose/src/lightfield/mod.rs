@@ -7,6 +7,8 @@
 //! across views.
 
 pub mod cues;
+pub mod depth;
+pub mod disparity;
 mod field;
 pub mod io;
 pub mod retinex;
