@@ -1,6 +1,6 @@
 //! Disparity from epipolar-plane images by the structure tensor (Wanner & Goldluecke, "Globally
-//! consistent depth labeling of 4D light fields", CVPR 2012, §3; "Variational light field
-//! analysis for disparity estimation and super-resolution", PAMI 2014, §4.1) — step 1 of the
+//! consistent depth labeling of 4D light fields", CVPR 2012; "Variational light field analysis
+//! for disparity estimation and super-resolution", PAMI 2014; the local estimate) — step 1 of the
 //! thesis's Algorithm 2 when no disparity is given.
 //!
 //! An epipolar-plane image (EPI) `S(x, s)` is one image row `y` of the views of one grid row,
@@ -13,7 +13,7 @@
 //! Its reliability is the coherence `r = √((J_ss − J_xx)² + 4J_xs²) / (J_xx + J_ss)` ∈ [0, 1].
 //! Vertical EPIs (one image column of the views of one grid column) give a second estimate the
 //! same way (`y + t·d = const`); per pixel the estimate with the higher coherence wins, as in the
-//! CVPR paper (§3.1, "we choose the one with the higher reliability"). Colour channels are summed
+//! papers (the more reliable direction is kept rather than averaged). Colour channels are summed
 //! into one tensor, as in the authors' code.
 //!
 //! Deliberate choices: derivatives are Gaussian-weighted least-squares slopes and smoothing is a
@@ -43,9 +43,9 @@ pub struct EpiParams {
     pub outer_scale: f32,
     /// Refocusing: the EPIs are also sheared by every integer disparity in `−shears..=shears`
     /// and each estimate adds its shear back, so that a slope of 1.5 px/view is measured as a
-    /// small residual around 1 or 2, where the local line model holds (PAMI §4.1 estimates the
-    /// tensor on sheared light fields for large disparity ranges). 0 is the plain method
-    /// (default 2: disparities up to about ±2.5 px/view, the HCI range).
+    /// small residual around 1 or 2, where the local line model holds (the authors' code runs
+    /// the estimate on light fields shifted by a given disparity, its `shift` argument). 0 is
+    /// the plain method (default 2: disparities up to about ±3 px/view, beyond the HCI range).
     pub shears: u32,
     /// Largest `|d − shear|` (pixels per view) an estimate may have; beyond it the estimate's
     /// coherence is 0, so a better-focused shear or the other EPI direction wins (default 1.0).
@@ -185,8 +185,8 @@ fn horizontal(
             for shear in -(p.shears as i64)..=p.shears as i64 {
                 let mut tensor = Tensor::new(ns * w);
                 for k in 0..ch {
-                    // The EPI of row y, sheared by the integer disparity `shear` (PAMI §4.1,
-                    // refocusing): E'(x, s) = E(x − (s − eval)·shear, s), a whole-pixel shift
+                    // The EPI of row y, sheared by the integer disparity `shear`
+                    // (refocusing): E'(x, s) = E(x − (s − eval)·shear, s), a whole-pixel shift
                     // per view, so no interpolation blurs it. Its lines have slope d − shear.
                     for (s, v) in views.iter().enumerate() {
                         let shift = (s as i64 - eval as i64) * shear;

@@ -231,8 +231,15 @@ fn the_convention_matches_the_rendered_fixture() {
 
 #[test]
 fn epi_disparity_on_the_rendered_fixture() {
-    let lf = load_fixture("", false);
-    let truth = read_pfm(&fixture().join("gt_disp_lowres.pfm"));
+    // Read through the crate's HCI folder reader: the fixture's layout must be what it expects.
+    let folder =
+        crate::lightfield::io::load_folder(&fixture(), None, LoadOptions::default()).unwrap();
+    let params = folder.parameters.as_ref().unwrap();
+    assert_eq!((params.num_cams_x, params.num_cams_y), (5, 5));
+    assert_eq!(params.resolution, Some((S, S)));
+    let lf = folder.field;
+    assert_eq!(lf, load_fixture("", false));
+    let truth = folder.disparity.unwrap();
     let (est, coherence) = epi_disparity(&lf, &EpiParams::default()).unwrap();
     // Textured pixels: centre-view luminance gradient above 0.01 per pixel and coherence above
     // 0.5, 5 pixels from the image border.
