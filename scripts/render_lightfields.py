@@ -17,9 +17,11 @@ Each scene is a closed room (no background: every pixel sees a surface) with pri
 ours to license), plain coloured, white (0.8) or black (0.04) paint, four to seven objects
 (spheres, boxes and printed boards floating in front of the others, so that objects occlude each
 other in every view), one white point light (hard cast shadows) and a weaker white fill light,
-sometimes with a small area light behind the cameras (soft shadows). All materials are Lambertian (`diffuse`). Mitsuba 3
-(PyPI `mitsuba`, `scalar_rgb`): the `direct` integrator wrapped in the `aov` integrator renders the
-image I and the albedo R from the same samples; direct light only, white lights, so
+sometimes with a small area light behind the cameras (soft shadows). All materials are
+Lambertian (`diffuse`). Mitsuba 3 (PyPI `mitsuba`, `scalar_rgb`): the `direct` integrator wrapped
+in the `aov` integrator renders the image I and the albedo R from the same samples, once per
+light, summed (Mitsuba picks one light at random per light sample, which with several lights is
+noisy; a point light alone is exact). Direct light only, white lights, so
 S = sum_c I_c / sum_c R_c is grey and view-independent (Lambertian), and the input written is
 R x S, so I = R x S holds exactly (to 16-bit quantisation: the script checks it and prints the
 largest error in 16-bit steps). At a pixel that mixes two surfaces the written input is R x S of
@@ -392,7 +394,20 @@ def bilinear(img, x, y):
 def render(seed, out_dir, tmp, grid, size, spp, max_disparity, split, log):
     t_start = time.time()
     scene_d, info = scene_dict(seed, tmp)
-    scene = mi.load_dict(scene_d)
+    # One scene per light, rendered separately and summed: Mitsuba's `direct` integrator picks
+    # one emitter at random per light sample, which with two or three lights and a few samples
+    # per pixel is very noisy; a point light alone is sampled exactly. The area light's
+    # rectangle stays in the other scenes as a plain surface, so every scene has one geometry.
+    lights = [k for k in ("point", "fill", "area") if k in scene_d]
+    base = {k: v for k, v in scene_d.items() if k not in lights}
+    scenes = []
+    for name in lights:
+        d = dict(base)
+        d[name] = scene_d[name]
+        if name != "area" and "area" in scene_d:
+            d["area"] = {k: v for k, v in scene_d["area"].items() if k != "emitter"}
+        scenes.append((name, mi.load_dict(d)))
+    scene = scenes[0][1]
     rig = Rig(grid, size, seed)
     c = grid // 2
     # Focus and baseline from the centre view's depth (the centre camera does not depend on them).
@@ -404,22 +419,29 @@ def render(seed, out_dir, tmp, grid, size, spp, max_disparity, split, log):
     names = [f"input_Cam{i:03d}" for i in range(grid * grid)]
     for sub in ("input", "reflectance", "shading", "disparity"):
         os.makedirs(os.path.join(out_dir, "truth", sub), exist_ok=True)
-    # The area light's soft shadows need more light samples than the point light's hard ones.
-    emitter_samples = 8 if info["area_light"] else 1
-    integrator = mi.load_dict(
-        {
-            "type": "aov",
-            "aovs": "albedo:albedo",
-            "integrator": {"type": "direct", "emitter_samples": emitter_samples, "bsdf_samples": 0},
-        }
-    )
+    # The area light's soft shadows need more light samples than a point light, which one sample
+    # gives exactly.
+    integrators = {
+        name: mi.load_dict(
+            {
+                "type": "aov",
+                "aovs": "albedo:albedo",
+                "integrator": {"type": "direct", "emitter_samples": 8 if name == "area" else 1, "bsdf_samples": 0},
+            }
+        )
+        for name, _ in scenes
+    }
     views, disparities, positions = [], [], {}
     for row in range(grid):
         for col in range(grid):
             i = row * grid + col
             sensor = mi.load_dict(rig.sensor(row, col, spp, seed * 1000 + i))
-            out = np.array(mi.render(scene, sensor=sensor, integrator=integrator, seed=seed * 1000 + i, spp=spp))
-            out = out.astype(np.float64)
+            # The same seed for every light: the same sub-pixel samples, so the albedo AOVs agree.
+            out = sum(
+                np.array(mi.render(sc, sensor=sensor, integrator=integrators[name], seed=seed * 1000 + i, spp=spp)).astype(np.float64)
+                for name, sc in scenes
+            )
+            out[..., 3:6] /= len(scenes)
             image, albedo = out[..., 0:3], out[..., 3:6]
             pos = positions_at_centres(scene, rig, row, col)
             positions[(row, col)] = pos
