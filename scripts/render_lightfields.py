@@ -10,7 +10,7 @@ the HCI 4D light field benchmark (Honauer, Johannsen, Kondermann & Goldluecke, A
 Scenes are seeded and split by seed: the first half goes to `tune/`, the second to `test/`
 (default: seeds 0-3 tune, 4-7 test). Tune only on `tune/`. `--tiny` renders one scene (seed
 `--tiny-seed`, default 8, in neither split) as 5x5 views of 48x48 pixels (16 spp) straight into
-`fixtures/lightfield/tiny/` (0.95 MB with its truth).
+`fixtures/lightfield/tiny/` (0.90 MB with its truth).
 
 Each scene is a closed room (no background: every pixel sees a surface) with printed textures
 (ink marks on paper, stripes, checks, dots, colour patches; all generated here, so the output is

@@ -12,9 +12,10 @@
 //! it, so `d = tan θ` (for `S = f(x + s·d)`: `J_xs/J_xx = d`, `J_ss/J_xx = d²`, `θ = atan d`).
 //! Its reliability is the coherence `r = √((J_ss − J_xx)² + 4J_xs²) / (J_xx + J_ss)` ∈ [0, 1].
 //! Vertical EPIs (one image column of the views of one grid column) give a second estimate the
-//! same way (`y + t·d = const`); per pixel the estimate with the higher coherence wins, as in the
-//! papers (the more reliable direction is kept rather than averaged). Colour channels are summed
-//! into one tensor, as in the authors' code.
+//! same way (`y + t·d = const`); per pixel the estimate with the higher coherence is kept (the
+//! direction along which the EPI shows clean lines; a coherence-weighted mean would blend in the
+//! other direction's failures at edges parallel to it). Colour channels are summed into one
+//! tensor, as in the authors' code.
 //!
 //! Deliberate choices: derivatives are Gaussian-weighted least-squares slopes and smoothing is a
 //! Gaussian-weighted mean, both with the kernel truncated at the image and grid borders and
