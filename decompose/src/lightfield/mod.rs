@@ -7,5 +7,7 @@
 //! across views.
 
 mod field;
+mod tvl1;
 
 pub use field::LightField;
+pub use tvl1::{TvL1Info, TvL1Params, objective, tv_l1, tv_l1_with_progress};
