@@ -177,10 +177,7 @@ pub fn tv_l1_with_progress(
         ));
     }
     let g = grid(lf);
-    let f = lf.data();
-    let mut u = f.to_vec();
-    let mut ubar = f.to_vec();
-    let mut y = vec![0.0f32; 4 * f.len()];
+    let mut state = admm::State::new(g, lf.data());
     let rho = params.rho;
     let tau = 1.0 / (rho * g.gradient_norm_sq());
     let tau_beta = tau * params.beta;
@@ -198,15 +195,15 @@ pub fn tv_l1_with_progress(
                 fraction: it as f32 / params.iterations as f32,
             });
         }
-        let dual_change = admm::dual_pass(&g, &ubar, &mut y, rho);
-        let primal_change = admm::primal_pass(&g, &y, f, &mut u, &mut ubar, tau, tau_beta);
-        info.max_change = primal_change.max(dual_change);
+        info.max_change = state.iterate(rho, tau, tau_beta);
         info.iterations = it + 1;
         if info.max_change <= params.tolerance {
             info.converged = true;
             break;
         }
     }
+    let u = admm::from_pixel_major(&g, &state.u);
+    drop(state);
     let out = LightField::from_vec(
         lf.rows(),
         lf.cols(),
@@ -226,7 +223,6 @@ fn grid(lf: &LightField) -> Grid {
         height: lf.height() as usize,
         width: lf.width() as usize,
         channels: lf.channels(),
-        strides: lf.strides(),
     }
 }
 
@@ -245,7 +241,7 @@ pub fn objective(u: &LightField, f: &LightField, params: &TvL1Params) -> f64 {
         "objective: u and f must have the same shape"
     );
     let g = grid(u);
-    let [sr, sc, sy, sx] = g.strides;
+    let [sr, sc, sy, sx] = u.strides();
     let (ud, fd) = (u.data(), f.data());
     let c = g.channels;
     let beta = f64::from(params.beta);
