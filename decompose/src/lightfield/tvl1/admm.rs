@@ -281,7 +281,9 @@ impl Kernel<'_> {
                         let s = shifts[a];
                         let mask = if a == 0 { self.row_mask } else { self.col_mask };
                         let inner = (n - s).saturating_sub(start).min(m);
-                        let (r0, r1) = (start..start + inner, start + s..start + s + inner);
+                        // An empty range may start past the end of the line: clamp it.
+                        let s0 = (start + s).min(n);
+                        let (r0, r1) = (start..start + inner, s0..s0 + inner);
                         for ((((o, &yv), &un), &uv), &mk) in va[..inner]
                             .iter_mut()
                             .zip(&ya[..inner])
@@ -309,7 +311,9 @@ impl Kernel<'_> {
                     _ => {
                         let s = shifts[3];
                         let inner = (n - s).saturating_sub(start).min(m);
-                        let (r0, r1) = (start..start + inner, start + s..start + s + inner);
+                        // An empty range may start past the end of the line: clamp it.
+                        let s0 = (start + s).min(n);
+                        let (r0, r1) = (start..start + inner, s0..s0 + inner);
                         for (((o, &yv), &un), &uv) in va[..inner]
                             .iter_mut()
                             .zip(&ya[..inner])
