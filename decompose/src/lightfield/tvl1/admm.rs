@@ -98,8 +98,8 @@ pub(super) fn from_pixel_major(g: &Grid, src: &[f32]) -> Vec<f32> {
 pub(super) struct State {
     g: Grid,
     /// `f`, `u`, `ū`.
-    pub f: Vec<f32>,
-    pub u: Vec<f32>,
+    f: Vec<f32>,
+    u: Vec<f32>,
     ubar: Vec<f32>,
     /// Multipliers: per line, four planes `[row, col, y, x]` of one line each.
     y: Vec<f32>,
@@ -153,6 +153,11 @@ impl State {
             chunk_lines,
             chunks,
         }
+    }
+
+    /// The current `u`, pixel-major; frees everything else.
+    pub fn into_u(self) -> Vec<f32> {
+        self.u
     }
 
     /// One iteration; returns `max(max |Δu|, max |Δy|)`.
@@ -381,7 +386,7 @@ impl Kernel<'_> {
     ) -> f32 {
         let (n, c) = (self.n, self.g.channels);
         let (yr, yc, yy, yx) = (&y[..n], &y[n..2 * n], &y[2 * n..3 * n], &y[3 * n..4 * n]);
-        let above = y_above.map_or(&self.zeros[..], |a| &a[2 * n..3 * n]);
+        let above = y_above.map_or(self.zeros, |a| &a[2 * n..3 * n]);
         let (sr, sc, sx) = (self.g.cols * c, c, self.g.pixel());
         let (tau, tb) = (self.tau, self.tau_beta);
         // One element of (P) given the four backward differences.
@@ -461,8 +466,8 @@ mod tests {
         let src: Vec<f32> = (0..2 * 3 * 4 * 5 * 3).map(|i| i as f32).collect();
         let pm = to_pixel_major(&g, &src);
         // Sample (row 1, col 2, y 3, x 4, channel 2) in both layouts.
-        let views_major = (((1 * 3 + 2) * 4 + 3) * 5 + 4) * 3 + 2;
-        let pixel_major = ((3 * 5 + 4) * 6 + (1 * 3 + 2)) * 3 + 2;
+        let views_major = (((3 + 2) * 4 + 3) * 5 + 4) * 3 + 2;
+        let pixel_major = ((3 * 5 + 4) * 6 + (3 + 2)) * 3 + 2;
         assert_eq!(pm[pixel_major], src[views_major]);
         assert_eq!(from_pixel_major(&g, &pm), src);
     }

@@ -47,14 +47,31 @@
 //!
 //! with `τ = 1 / (ρ‖∇‖²)`, `‖∇‖² ≤ 4·(number of axes longer than 1) ≤ 16`, which is the
 //! convergence condition `τρ‖∇‖² ≤ 1` of linearised ADMM / the primal–dual method
-//! (Chambolle & Pock 2011). Each iteration is two fused passes over the light field (module
-//! `admm`), parallel over image rows of all views with rayon, no allocation per iteration.
-//! Memory: the output `u`, `ū` and the multipliers `y` (4 values per sample), i.e. six
-//! `f32` copies of the light field besides the input.
+//! (Chambolle & Pock 2011).
 //!
-//! The convergence measure is `max(max |uᵏ⁺¹ − uᵏ|, max |yᵏ⁺¹ − yᵏ|)` (exact, independent of the thread count and of
-//! the evaluation order); the iteration stops when it falls to [`TvL1Params::tolerance`] or
-//! after [`TvL1Params::iterations`].
+//! **Which "Yang et al. 2013".** The issue cites an ADMM of Yang et al. (2013) run in parallel;
+//! the paper's text could not be read here. The likeliest source is S. Yang, J. Wang, W. Fan,
+//! X. Zhang, P. Wonka & J. Ye, "An efficient ADMM algorithm for multidimensional anisotropic
+//! total variation regularization problems" (KDD 2013), which splits an *anisotropic* TV into
+//! one copy per axis and solves independent 1D TV problems in parallel. This module instead
+//! minimises the *isotropic* multichannel energy above (rotation-invariant over the four axes,
+//! colour edges shared) with the linearised ADMM, which is just as parallel (every ray
+//! updates independently) and needs no 1D TV solver. The anisotropic variant would give a
+//! slightly different minimiser; it is not implemented.
+//!
+//! # Implementation
+//!
+//! The solver copies the light field into a *pixel-major* layout (all views and channels of
+//! one spatial pixel contiguous), so that the angular and `x` neighbours of a sample are in the
+//! same image line of all views and the `y` neighbours in the next. One iteration is then a
+//! single fused sweep over lines (the dual update of a line, then its primal update), parallel
+//! over chunks of lines with rayon, with no allocation per iteration (module `admm`). Memory: pixel-major `f`, `u`, `ū` and the multipliers `y`
+//! (4 values per sample) — seven `f32` copies of the light field besides the input, i.e. about
+//! 2 GB for 9×9×512²×3.
+//!
+//! The convergence measure is `max(max |uᵏ⁺¹ − uᵏ|, max |yᵏ⁺¹ − yᵏ|)` (a maximum, so exact and
+//! independent of the thread count and of the evaluation order); the iteration stops when it
+//! falls to [`TvL1Params::tolerance`] or after [`TvL1Params::iterations`].
 //!
 //! # Invariants (tested)
 //!
@@ -62,7 +79,7 @@
 //!   on tiny light fields to 1e-6 relative (tests; the reference lives in `reference.rs`).
 //! - Filtering the angular transpose gives the bit-identical angular transpose of the result.
 //! - A constant light field is a fixed point; small specks vanish, large flat regions stay.
-//! - The result is bit-identical for any number of rayon threads.
+//! - The result is bit-identical for any number of rayon threads and any chunking of the sweep.
 //!
 //! # Measured convergence
 //!
@@ -202,8 +219,7 @@ pub fn tv_l1_with_progress(
             break;
         }
     }
-    let u = admm::from_pixel_major(&g, &state.u);
-    drop(state);
+    let u = admm::from_pixel_major(&g, &state.into_u());
     let out = LightField::from_vec(
         lf.rows(),
         lf.cols(),
