@@ -21,7 +21,19 @@ fn random_lf(rows: usize, cols: usize, w: u32, h: u32, c: usize, seed: u64) -> L
 /// reference (`f64`, duality gap below 1e-9 relative) agree to 1e-6 relative. ρ is the one
 /// that converges fastest for each case (measured), which matters only for the test's time.
 fn check_against_reference(c: usize, beta: f32, rho: f32, iterations: usize, seed: u64) {
-    let lf = random_lf(3, 3, 5, 4, c, seed);
+    check_shape_against_reference([3, 3, 4, 5], c, beta, rho, iterations, seed);
+}
+
+fn check_shape_against_reference(
+    shape: [usize; 4],
+    c: usize,
+    beta: f32,
+    rho: f32,
+    iterations: usize,
+    seed: u64,
+) {
+    let [rows, cols, h, w] = shape;
+    let lf = random_lf(rows, cols, w as u32, h as u32, c, seed);
     let params = TvL1Params {
         beta,
         rho,
@@ -30,7 +42,7 @@ fn check_against_reference(c: usize, beta: f32, rho: f32, iterations: usize, see
     };
     let (u, info) = tv_l1(&lf, &params).unwrap();
     let f64s: Vec<f64> = lf.data().iter().map(|&v| f64::from(v)).collect();
-    let r = reference::solve([3, 3, 4, 5], c, &f64s, f64::from(beta), 1e-9, 200_000);
+    let r = reference::solve(shape, c, &f64s, f64::from(beta), 1e-9, 200_000);
     let gap = (r.primal - r.dual) / r.primal;
     assert!(
         gap <= 1e-9,
@@ -69,6 +81,14 @@ fn matches_reference_one_channel_paper_beta() {
 fn matches_reference_one_channel() {
     check_against_reference(1, 0.5, 1.0, 3000, 2);
     check_against_reference(1, 1.5, 3.0, 3000, 3);
+}
+
+/// Degenerate grids: one view (a plain image), one row of views, one column of views.
+#[test]
+fn matches_reference_on_degenerate_grids() {
+    check_shape_against_reference([1, 1, 6, 7], 3, 0.7, 3.0, 3000, 7);
+    check_shape_against_reference([1, 4, 5, 3], 1, 0.7, 3.0, 3000, 8);
+    check_shape_against_reference([4, 1, 3, 5], 1, 0.7, 3.0, 3000, 9);
 }
 
 #[test]
