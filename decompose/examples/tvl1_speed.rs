@@ -78,8 +78,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     let xs = (x as isize + dx).clamp(0, n as isize - 1) as u32;
                     let src = img.get(xs, ys);
                     let p = r * sr + c * sc + y * sy + x * sx;
-                    for k in 0..3 {
-                        lf.data_mut()[p + k] = src[k] + 0.04 * (rng.random::<f32>() - 0.5);
+                    for (dst, &v) in lf.data_mut()[p..p + 3].iter_mut().zip(src) {
+                        *dst = v + 0.04 * (rng.random::<f32>() - 0.5);
                     }
                 }
             }
