@@ -12,5 +12,6 @@ pub mod disparity;
 mod field;
 pub mod io;
 pub mod retinex;
+pub mod tvl1;
 
 pub use field::LightField;
