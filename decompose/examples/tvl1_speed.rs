@@ -16,7 +16,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use decompose::io::{self, LoadOptions};
-use decompose::lightfield::{LightField, TvL1Params, tv_l1};
+use decompose::lightfield::LightField;
+use decompose::lightfield::tvl1::{TvL1Params, tv_l1};
 
 fn peak_rss_mb() -> f64 {
     std::fs::read_to_string("/proc/self/status")

@@ -9,9 +9,15 @@
 pub mod cues;
 pub mod depth;
 pub mod disparity;
+pub mod edit;
+pub mod eval;
 mod field;
 pub mod io;
+pub mod method;
+pub mod propagate;
 pub mod retinex;
+pub mod synthetic;
 pub mod tvl1;
 
 pub use field::LightField;
+pub use method::{LightFieldDecomposition, LightFieldInfo, LightFieldParams, decompose};

@@ -1,4 +1,5 @@
-//! `decompose bench`: timings of the clustering method.
+//! `decompose bench`: timings of the clustering method, and with `--lightfield` of the
+//! light-field method against per-view Retinex in the same run.
 
 use std::path::Path;
 use std::time::Instant;
@@ -17,6 +18,10 @@ pub(crate) struct BenchArgs {
     /// Repetitions per case (the minimum is reported).
     #[arg(long, default_value_t = 3)]
     repeat: usize,
+    /// Instead: a 9x9 light field of SIZE² views (the synthetic card in front of a wall),
+    /// decomposed by the light-field method (per-stage split) and by per-view Retinex.
+    #[arg(long, value_name = "SIZE")]
+    lightfield: Option<u32>,
 }
 
 pub(crate) fn peak_rss_mib() -> Option<f64> {
@@ -27,6 +32,9 @@ pub(crate) fn peak_rss_mib() -> Option<f64> {
 }
 
 pub(crate) fn run_bench(a: BenchArgs) -> Result<()> {
+    if let Some(size) = a.lightfield {
+        return bench_lightfield(size);
+    }
     let astronaut = io::decode_rgb(
         include_bytes!("../../../../fixtures/photos/astronaut.jpg"),
         Path::new("astronaut.jpg"),
@@ -97,5 +105,53 @@ pub(crate) fn run_bench(a: BenchArgs) -> Result<()> {
             peak_rss_mib().unwrap_or(f64::NAN)
         ))?;
     }
+    Ok(())
+}
+
+/// The light-field method and per-view Retinex on one synthetic 9×9 light field.
+fn bench_lightfield(size: u32) -> Result<()> {
+    use decompose::lightfield::method::per_view;
+    use decompose::lightfield::synthetic::card_in_front_of_a_wall;
+    use decompose::lightfield::{LightFieldParams, decompose as decompose_lf};
+    use decompose::retinex::{self, RetinexParams, Strokes};
+    if !(16..=2048).contains(&size) {
+        anyhow::bail!("--lightfield SIZE must be between 16 and 2048, got {size}");
+    }
+    let (lf, truth) = card_in_front_of_a_wall(9, 9, size, size, 1);
+    out(&format!("9x9 views of {size}x{size}, 2 threads\n"))?;
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+    let t = Instant::now();
+    let (_, info) = decompose_lf(
+        &lf,
+        Some(&truth.disparity),
+        &LightFieldParams::default(),
+        &mut |_| {},
+    )?;
+    let ours = t.elapsed().as_secs_f64();
+    for (stage, ms) in &info.stage_ms {
+        out(&format!("  {stage:<28} {:>8.2} s\n", ms / 1e3))?;
+    }
+    out(&format!(
+        "light-field method           {ours:>8.2} s   peak RSS {:.0} MiB\n",
+        peak_rss_mib().unwrap_or(f64::NAN)
+    ))?;
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+    let t = Instant::now();
+    per_view(&lf, |img| {
+        retinex::decompose(
+            img,
+            None,
+            &Strokes::default(),
+            &RetinexParams::default(),
+            &mut |_| {},
+        )
+        .map(|(d, _)| d)
+    })?;
+    let zhao = t.elapsed().as_secs_f64();
+    out(&format!(
+        "per-view Retinex (81 views)  {zhao:>8.2} s   peak RSS {:.0} MiB\nratio (ours / per-view)      {:>8.2}\n",
+        peak_rss_mib().unwrap_or(f64::NAN),
+        ours / zhao
+    ))?;
     Ok(())
 }

@@ -7,6 +7,8 @@ mod common;
 mod edit;
 mod eval;
 mod image_cmd;
+mod lightfield;
+mod lightfield_eval;
 mod whdr;
 
 use anyhow::Result;
@@ -16,6 +18,8 @@ use bench::{BenchArgs, run_bench};
 use edit::{EditCommand, run_edit};
 use eval::{EvalArgs, run_eval};
 use image_cmd::{ImageArgs, run_image};
+use lightfield::{LightFieldArgs, run_lightfield};
+use lightfield_eval::{EvalLightFieldArgs, run_eval_lightfield};
 use whdr::{WhdrArgs, run_whdr};
 
 #[derive(Parser)]
@@ -32,6 +36,11 @@ struct Cli {
 enum Command {
     /// Decompose one image and write reflectance, shading, cluster map, scatter plot, stats.
     Image(ImageArgs),
+    /// Decompose a light field (HCI folder or --grid of views) coherently across its views.
+    Lightfield(LightFieldArgs),
+    /// Score the light-field method, the per-view baselines and the ablations against rendered
+    /// ground truth (accuracy and angular coherence).
+    EvalLightfield(EvalLightFieldArgs),
     /// Evaluate every method on the MIT intrinsic images (LMSE and scale-invariant MSE).
     Eval(EvalArgs),
     /// Editing applications on a decomposition.
@@ -59,6 +68,8 @@ fn run() -> Result<()> {
     match cli.command {
         Command::Image(a) => run_image(a),
         Command::Eval(a) => run_eval(a),
+        Command::Lightfield(a) => run_lightfield(a),
+        Command::EvalLightfield(a) => run_eval_lightfield(a),
         Command::Edit(e) => run_edit(e),
         Command::Whdr(a) => run_whdr(a),
         Command::Bench(a) => run_bench(a),

@@ -10,11 +10,15 @@
 //! or PFM.
 
 mod cfg;
+mod output;
 pub mod pfm;
+mod truth;
 
 use std::path::{Path, PathBuf};
 
 pub use cfg::HciParameters;
+pub use output::{contact_sheet, serpentine, write_animation, write_views};
+pub use truth::load_truth;
 
 use crate::error::{Error, Result};
 use crate::image::Image;

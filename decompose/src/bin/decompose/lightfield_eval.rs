@@ -1,0 +1,185 @@
+//! `decompose eval-lightfield`: accuracy and angular coherence against rendered ground truth,
+//! for the light-field method, the per-view baselines and the ablations.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+
+use decompose::clustering::{self, ClusteringParams};
+use decompose::lightfield::eval::{LightFieldScores, evaluate};
+use decompose::lightfield::io::load_truth;
+use decompose::lightfield::method::per_view;
+use decompose::lightfield::propagate::disparity_to_every_view;
+use decompose::lightfield::{LightFieldParams, decompose as decompose_lf};
+use decompose::retinex::{self, RetinexParams, Strokes};
+
+use crate::common::out;
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug, PartialOrd, Ord)]
+pub(crate) enum LfMethod {
+    /// The light-field method (thesis ch. 4).
+    Ours,
+    /// Zhao et al. Retinex on every view alone.
+    Retinex,
+    /// Garces 2012 clustering on every view alone.
+    Clustering,
+    /// Ablation: no 4D filtering.
+    No4dFilter,
+    /// Ablation: no occlusion cue.
+    NoOcclusionCue,
+    /// Ablation: no white/black cue.
+    NoWhiteBlackCue,
+}
+
+impl LfMethod {
+    fn name(self) -> &'static str {
+        match self {
+            LfMethod::Ours => "ours",
+            LfMethod::Retinex => "per-view retinex",
+            LfMethod::Clustering => "per-view clustering",
+            LfMethod::No4dFilter => "ours, no 4D filter",
+            LfMethod::NoOcclusionCue => "ours, no occlusion cue",
+            LfMethod::NoWhiteBlackCue => "ours, no white/black cue",
+        }
+    }
+}
+
+#[derive(Args)]
+pub(crate) struct EvalLightFieldArgs {
+    /// A scene folder with truth/ (see `decompose::lightfield::io::load_truth`), or a folder
+    /// of such scenes.
+    #[arg(long)]
+    pub(crate) truth: PathBuf,
+    /// Methods to run (default: all).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub(crate) methods: Vec<LfMethod>,
+    /// Write every figure as JSON.
+    #[arg(long)]
+    pub(crate) json: Option<PathBuf>,
+}
+
+fn scenes(root: &Path) -> Result<Vec<PathBuf>> {
+    if root.join("truth").is_dir() {
+        return Ok(vec![root.to_path_buf()]);
+    }
+    let mut found: Vec<PathBuf> = std::fs::read_dir(root)
+        .with_context(|| format!("reading {}", root.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join("truth").is_dir())
+        .collect();
+    found.sort();
+    if found.is_empty() {
+        bail!(
+            "{} holds no scene with a truth/ folder (render some with scripts/render_lightfields.py)",
+            root.display()
+        );
+    }
+    Ok(found)
+}
+
+#[derive(serde::Serialize)]
+struct Row {
+    scores: LightFieldScores,
+    seconds: f64,
+}
+
+pub(crate) fn run_eval_lightfield(a: EvalLightFieldArgs) -> Result<()> {
+    let mut methods = a.methods.clone();
+    if methods.is_empty() {
+        methods = vec![
+            LfMethod::Ours,
+            LfMethod::Retinex,
+            LfMethod::Clustering,
+            LfMethod::No4dFilter,
+            LfMethod::NoOcclusionCue,
+            LfMethod::NoWhiteBlackCue,
+        ];
+    }
+    methods.sort();
+    methods.dedup();
+    let mut all: BTreeMap<String, BTreeMap<&'static str, Row>> = BTreeMap::new();
+    for scene in scenes(&a.truth)? {
+        let name = scene
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let (folder, truth) =
+            load_truth(&scene).with_context(|| format!("reading {}", scene.display()))?;
+        let lf = &folder.field;
+        // As a user would: the centre view's disparity from the folder, carried to every view.
+        let disparity = folder
+            .disparity
+            .as_ref()
+            .map(|d| disparity_to_every_view(d, lf.rows(), lf.cols()))
+            .transpose()?;
+        let mut rows = BTreeMap::new();
+        for &m in &methods {
+            let t = Instant::now();
+            let ours = |p: LightFieldParams| {
+                decompose_lf(lf, disparity.as_ref(), &p, &mut |_| {}).map(|(d, _)| d)
+            };
+            let d = match m {
+                LfMethod::Ours => ours(LightFieldParams::default()),
+                LfMethod::No4dFilter => ours(LightFieldParams {
+                    filter_4d: false,
+                    ..Default::default()
+                }),
+                LfMethod::NoOcclusionCue => ours(LightFieldParams {
+                    occlusion_cue: false,
+                    ..Default::default()
+                }),
+                LfMethod::NoWhiteBlackCue => ours(LightFieldParams {
+                    white_black_cue: false,
+                    ..Default::default()
+                }),
+                LfMethod::Retinex => per_view(lf, |img| {
+                    retinex::decompose(
+                        img,
+                        None,
+                        &Strokes::default(),
+                        &RetinexParams::default(),
+                        &mut |_| {},
+                    )
+                    .map(|(d, _)| d)
+                }),
+                LfMethod::Clustering => per_view(lf, |img| {
+                    clustering::decompose(img, None, &ClusteringParams::default(), &mut |_| {})
+                        .map(|o| o.decomposition)
+                }),
+            }
+            .with_context(|| format!("{name}: {}", m.name()))?;
+            let seconds = t.elapsed().as_secs_f64();
+            let scores = evaluate(&d, &truth)?;
+            out(&format!(
+                "{name:10} {:26} LMSE {:.4}  incoherence {:.5}  {:6.1} s\n",
+                m.name(),
+                scores.lmse,
+                scores.incoherence,
+                seconds
+            ))?;
+            rows.insert(m.name(), Row { scores, seconds });
+        }
+        all.insert(name, rows);
+    }
+    if all.len() > 1 {
+        out("\nmean over scenes\n")?;
+        for &m in &methods {
+            let rows: Vec<&Row> = all.values().filter_map(|r| r.get(m.name())).collect();
+            let n = rows.len().max(1) as f64;
+            out(&format!(
+                "{:37} LMSE {:.4}  incoherence {:.5}\n",
+                m.name(),
+                rows.iter().map(|r| r.scores.lmse).sum::<f64>() / n,
+                rows.iter().map(|r| r.scores.incoherence).sum::<f64>() / n
+            ))?;
+        }
+    }
+    if let Some(p) = &a.json {
+        std::fs::write(p, serde_json::to_string_pretty(&all)?)
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    Ok(())
+}

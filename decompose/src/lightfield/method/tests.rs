@@ -1,0 +1,137 @@
+use super::*;
+use crate::lightfield::eval::{angular_incoherence, evaluate};
+use crate::lightfield::synthetic::card_in_front_of_a_wall;
+
+fn quick() -> LightFieldParams {
+    let mut p = LightFieldParams::default();
+    p.reflectance_filter.iterations = 30;
+    p
+}
+
+#[test]
+fn rings_visit_every_view_once_with_a_solved_neighbour() {
+    for (rows, cols) in [(9, 9), (5, 5), (4, 6), (1, 3), (1, 1)] {
+        let rings = rings(rows, cols);
+        let mut seen = vec![usize::MAX; rows * cols];
+        for (k, ring) in rings.iter().enumerate() {
+            for &(v, parent) in ring {
+                assert_eq!(seen[v], usize::MAX, "view {v} twice");
+                seen[v] = k;
+                match parent {
+                    None => assert_eq!(k, 0),
+                    Some(p) => {
+                        assert_eq!(seen[p], k - 1, "parent of {v} not in the previous ring");
+                        let (dr, dc) =
+                            ((v / cols).abs_diff(p / cols), (v % cols).abs_diff(p % cols));
+                        assert!(dr <= 1 && dc <= 1);
+                    }
+                }
+            }
+        }
+        assert!(seen.iter().all(|&k| k != usize::MAX));
+        assert_eq!(rings[0].len(), 1);
+    }
+}
+
+#[test]
+fn every_view_is_reflectance_times_shading() {
+    let (lf, truth) = card_in_front_of_a_wall(3, 3, 24, 20, 3);
+    let (d, info) = decompose(&lf, Some(&truth.disparity), &quick(), &mut |_| {}).unwrap();
+    assert!(info.occlusion_cue && info.occlusion_pair_fraction > 0.0);
+    assert!(info.views.iter().all(|v| v.converged), "{:?}", info.views);
+    for v in 0..lf.views() {
+        let back = d.view(v).reconstruct();
+        for (a, b) in back.data().iter().zip(lf.view_data(v)) {
+            assert!((a - b).abs() <= 1e-5 + 1e-4 * b, "view {v}: {a} vs {b}");
+        }
+    }
+}
+
+#[test]
+fn incoherence_is_zero_for_the_truth_blind_to_scale_and_sees_one_brighter_view() {
+    let (lf, truth) = card_in_front_of_a_wall(3, 3, 40, 32, 5);
+    let (t, pixels) = angular_incoherence(&truth.reflectance, &truth.disparity, None).unwrap();
+    assert!(t < 1e-10 && pixels > 1000, "{t} {pixels}");
+    let mut scaled = truth.reflectance.clone();
+    scaled.data_mut().iter_mut().for_each(|v| *v *= 3.0);
+    assert!(
+        angular_incoherence(&scaled, &truth.disparity, None)
+            .unwrap()
+            .0
+            < 1e-10
+    );
+    // One of the 9 views twice as bright: where all 9 see the point, the log values are
+    // ln 2 apart for 1 of 9, a variance of (1/9)(8/9)(ln 2)²; the few pixels seen by fewer
+    // views (border, card edges) weigh more, so within 10 %.
+    let v0 = scaled.view_index(0, 0);
+    scaled.view_data_mut(v0).iter_mut().for_each(|v| *v *= 2.0);
+    let (one, _) = angular_incoherence(&scaled, &truth.disparity, None).unwrap();
+    let all_nine = (1.0 / 9.0) * (8.0 / 9.0) * std::f64::consts::LN_2.powi(2);
+    assert!((one / all_nine - 1.0).abs() < 0.1, "{one} vs {all_nine}");
+    // And the decomposition's scores are finite and the truth scores perfectly.
+    let (ours, _) = decompose(&lf, Some(&truth.disparity), &quick(), &mut |_| {}).unwrap();
+    let s = evaluate(&ours, &truth).unwrap();
+    assert!(s.lmse.is_finite() && s.incoherence.is_finite());
+    let perfect = LightFieldDecomposition {
+        reflectance: truth.reflectance.clone(),
+        shading: truth.shading.clone(),
+    };
+    assert!(evaluate(&perfect, &truth).unwrap().lmse < 1e-12);
+}
+
+#[test]
+fn ablations_switch_their_stage_off() {
+    let (lf, truth) = card_in_front_of_a_wall(3, 3, 24, 20, 7);
+    let mut p = quick();
+    p.filter_4d = false;
+    p.occlusion_cue = false;
+    let (d, info) = decompose(&lf, Some(&truth.disparity), &p, &mut |_| {}).unwrap();
+    assert!(!info.occlusion_cue && info.occlusion_pair_fraction == 0.0);
+    // Without 4D filtering the final shading is the Retinex shading e^s up to the one global
+    // scale: its ratio to ‖L‖/‖R‖ is 1 and the shading is smooth where the wall is.
+    let (with, _) = decompose(&lf, Some(&truth.disparity), &quick(), &mut |_| {}).unwrap();
+    assert_ne!(d, with);
+    let (no_wb, _) = decompose(
+        &lf,
+        None,
+        &LightFieldParams {
+            white_black_cue: false,
+            ..quick()
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_ne!(no_wb, with);
+}
+
+#[test]
+fn bad_light_fields_are_refused() {
+    let (lf, truth) = card_in_front_of_a_wall(3, 3, 12, 10, 1);
+    let grey = LightField::new(3, 3, 12, 10, 1);
+    assert!(matches!(
+        decompose(&grey, None, &quick(), &mut |_| {}),
+        Err(Error::InvalidParam {
+            name: "channels",
+            ..
+        })
+    ));
+    let black = LightField::new(3, 3, 12, 10, 3);
+    assert!(matches!(
+        decompose(&black, None, &quick(), &mut |_| {}),
+        Err(Error::AllBlack { .. })
+    ));
+    let mut nan = lf.clone();
+    nan.data_mut()[5] = f32::NAN;
+    assert!(decompose(&nan, None, &quick(), &mut |_| {}).is_err());
+    let wrong = LightField::new(3, 3, 12, 11, 1);
+    assert!(matches!(
+        decompose(&lf, Some(&wrong), &quick(), &mut |_| {}),
+        Err(Error::InvalidParam {
+            name: "disparity",
+            ..
+        })
+    ));
+    let mut bad_disp = truth.disparity.clone();
+    bad_disp.data_mut()[0] = f32::INFINITY;
+    assert!(decompose(&lf, Some(&bad_disp), &quick(), &mut |_| {}).is_err());
+}

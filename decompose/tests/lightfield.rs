@@ -1,0 +1,198 @@
+//! `decompose lightfield` and `decompose eval-lightfield` end to end on the committed tiny
+//! rendered light field (`fixtures/lightfield/tiny`: 5×5 views of 48×48, exact ground truth).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use decompose::io::{LoadOptions, load_rgb};
+
+fn tiny() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/lightfield/tiny")
+}
+
+fn decompose(args: &[&std::ffi::OsStr]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_decompose"))
+        .args(args)
+        .output()
+        .expect("run decompose")
+}
+
+fn os(s: &str) -> &std::ffi::OsStr {
+    std::ffi::OsStr::new(s)
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        if e.path().is_file() {
+            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+        }
+    }
+}
+
+#[test]
+fn lightfield_writes_every_view_under_its_input_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = decompose(&[
+        os("lightfield"),
+        tiny().as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+        os("--linear-output"),
+        os("--quiet"),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for sub in ["reflectance", "shading"] {
+        let names: Vec<String> = std::fs::read_dir(out.join(sub))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names.len(), 50, "{sub}: 25 PNG + 25 TIFF");
+        assert!(out.join(sub).join("input_Cam024.png").is_file());
+    }
+    for f in [
+        "reflectance_sheet.png",
+        "shading_sheet.png",
+        "views.gif",
+        "disparity.pfm",
+    ] {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["grid"], serde_json::json!([5, 5]));
+    assert_eq!(stats["disparity"], "the folder's gt_disp_lowres.pfm");
+    assert_eq!(stats["run"]["views"].as_array().unwrap().len(), 25);
+    // The float TIFFs multiply back to the (sRGB-decoded) input, view by view.
+    let lin = LoadOptions {
+        linear: true,
+        ..Default::default()
+    };
+    for cam in ["input_Cam000", "input_Cam012", "input_Cam024"] {
+        let input = load_rgb(tiny().join(format!("{cam}.png")), LoadOptions::default()).unwrap();
+        let r = load_rgb(out.join(format!("reflectance/{cam}.tiff")), lin).unwrap();
+        let s = load_rgb(out.join(format!("shading/{cam}.tiff")), lin).unwrap();
+        for i in 0..input.len() {
+            for c in 0..3 {
+                let (a, b) = (r.px(i)[c] * s.px(i)[0], input.px(i)[c]);
+                assert!(
+                    (a - b).abs() <= 1e-4 + 1e-4 * b,
+                    "{cam} pixel {i}: {a} vs {b}"
+                );
+            }
+        }
+    }
+    // A second run into the same folder is refused without --force and replaces it with it.
+    let again = decompose(&[
+        os("lightfield"),
+        tiny().as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+        os("-q"),
+    ]);
+    assert!(!again.status.success());
+    assert!(String::from_utf8_lossy(&again.stderr).contains("--force"));
+    let forced = decompose(&[
+        os("lightfield"),
+        tiny().as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+        os("-q"),
+        os("--force"),
+        os("--no-occlusion-cue"),
+    ]);
+    assert!(
+        forced.status.success(),
+        "{}",
+        String::from_utf8_lossy(&forced.stderr)
+    );
+    assert!(!out.join("reflectance/input_Cam000.tiff").exists());
+}
+
+/// Runs on a broken copy of the fixture; the error must name `needle` and leave no output.
+fn fails_naming(break_it: impl Fn(&Path), extra: &[&str], needle: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let lf = dir.path().join("lf");
+    copy_dir(&tiny(), &lf);
+    break_it(&lf);
+    let out = dir.path().join("out");
+    let mut args = vec![
+        os("lightfield"),
+        lf.as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+        os("-q"),
+    ];
+    args.extend(extra.iter().map(|s| os(s)));
+    let o = decompose(&args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "should fail for {needle}");
+    assert!(err.contains(needle), "{needle:?} not in {err:?}");
+    assert!(!err.contains("panicked"), "{err}");
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(left, ["lf"], "no output or partial folder may remain");
+}
+
+#[test]
+fn bad_light_fields_fail_naming_the_file_and_leave_nothing_behind() {
+    fails_naming(
+        |lf| std::fs::remove_file(lf.join("input_Cam007.png")).unwrap(),
+        &[],
+        "input_Cam007.png",
+    );
+    fails_naming(
+        |lf| {
+            let small = image::RgbImage::new(40, 48);
+            small.save(lf.join("input_Cam003.png")).unwrap();
+        },
+        &[],
+        "input_Cam003.png",
+    );
+    fails_naming(
+        |lf| std::fs::write(lf.join("parameters.cfg"), "[extrinsics]\nnum_cams_x = 5\n").unwrap(),
+        &[],
+        "parameters.cfg",
+    );
+    fails_naming(
+        |lf| std::fs::write(lf.join("gt_disp_lowres.pfm"), b"Pf\n48 48\n-1\n").unwrap(),
+        &[],
+        "gt_disp_lowres.pfm",
+    );
+    fails_naming(|_| {}, &["--grid", "9x"], "--grid");
+    fails_naming(|_| {}, &["--grid", "3x3"], "needs 9");
+}
+
+#[test]
+fn more_coherent_across_views_than_per_view_methods_on_the_rendered_fixture() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("scores.json");
+    let o = decompose(&[
+        os("eval-lightfield"),
+        os("--truth"),
+        tiny().as_os_str(),
+        os("--methods"),
+        os("ours,retinex,clustering"),
+        os("--json"),
+        json.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let scene = &v["tiny"];
+    let get = |m: &str, k: &str| scene[m]["scores"][k].as_f64().unwrap();
+    let ours = (get("ours", "lmse"), get("ours", "incoherence"));
+    for baseline in ["per-view retinex", "per-view clustering"] {
+        let b = (get(baseline, "lmse"), get(baseline, "incoherence"));
+        assert!(
+            ours.1 < 0.5 * b.1,
+            "incoherence: ours {} vs {baseline} {}",
+            ours.1,
+            b.1
+        );
+        assert!(ours.0 <= b.0, "LMSE: ours {} vs {baseline} {}", ours.0, b.0);
+    }
+}
