@@ -196,3 +196,77 @@ fn more_coherent_across_views_than_per_view_methods_on_the_rendered_fixture() {
         assert!(ours.0 <= b.0, "LMSE: ours {} vs {baseline} {}", ours.0, b.0);
     }
 }
+
+#[test]
+fn edits_reach_every_view_and_leave_the_rest_of_the_image_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    // A region on the centre view: its left half.
+    let region = dir.path().join("region.png");
+    image::GrayImage::from_fn(48, 48, |x, _| image::Luma([if x < 24 { 255 } else { 0 }]))
+        .save(&region)
+        .unwrap();
+    let out = dir.path().join("recoloured");
+    let o = decompose(&[
+        os("edit-lightfield"),
+        os("recolour"),
+        tiny().as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+        os("--region"),
+        region.as_os_str(),
+        os("--hue"),
+        os("120"),
+        os("-q"),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("edited_sheet.png").is_file());
+    for cam in ["input_Cam000", "input_Cam012", "input_Cam024"] {
+        let before = image::open(tiny().join(format!("{cam}.png")))
+            .unwrap()
+            .to_rgb8();
+        let after = image::open(out.join(format!("{cam}.png")))
+            .unwrap()
+            .to_rgb8();
+        let (mut changed_left, mut changed_right) = (0, 0);
+        for (x, y, p) in after.enumerate_pixels() {
+            let q = before.get_pixel(x, y);
+            let differs = p.0.iter().zip(q.0).any(|(a, b)| a.abs_diff(b) > 2);
+            // Disparities are at most a couple of pixels between neighbouring views: stay clear
+            // of the region's edge.
+            if differs && x < 16 {
+                changed_left += 1;
+            }
+            if differs && x >= 34 {
+                changed_right += 1;
+            }
+        }
+        assert!(
+            changed_left > 100,
+            "{cam}: the region was not recoloured ({changed_left})"
+        );
+        assert_eq!(changed_right, 0, "{cam}: pixels outside the region changed");
+    }
+    let relit = dir.path().join("relit");
+    let o = decompose(&[
+        os("edit-lightfield"),
+        os("relight"),
+        tiny().as_os_str(),
+        os("--out"),
+        relit.as_os_str(),
+        os("--curve"),
+        os("0:0,1:0.5"),
+        os("-q"),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let lin = |p: PathBuf| load_rgb(p, LoadOptions::default()).unwrap();
+    for cam in ["input_Cam000", "input_Cam024"] {
+        let (a, b) = (
+            lin(relit.join(format!("{cam}.png"))),
+            lin(tiny().join(format!("{cam}.png"))),
+        );
+        // Halving every view's shading halves the linear image, in every view alike.
+        for (x, y) in a.data().iter().zip(b.data()) {
+            assert!((x - 0.5 * y).abs() < 0.01, "{cam}: {x} vs half of {y}");
+        }
+    }
+}

@@ -8,6 +8,7 @@ mod edit;
 mod eval;
 mod image_cmd;
 mod lightfield;
+mod lightfield_edit;
 mod lightfield_eval;
 mod whdr;
 
@@ -19,6 +20,7 @@ use edit::{EditCommand, run_edit};
 use eval::{EvalArgs, run_eval};
 use image_cmd::{ImageArgs, run_image};
 use lightfield::{LightFieldArgs, run_lightfield};
+use lightfield_edit::{LightFieldEdit, run_edit_lightfield};
 use lightfield_eval::{EvalLightFieldArgs, run_eval_lightfield};
 use whdr::{WhdrArgs, run_whdr};
 
@@ -38,6 +40,10 @@ enum Command {
     Image(ImageArgs),
     /// Decompose a light field (HCI folder or --grid of views) coherently across its views.
     Lightfield(LightFieldArgs),
+    /// Edit every view of a light field coherently (recolour from one region, relight with one
+    /// curve).
+    #[command(subcommand)]
+    EditLightfield(LightFieldEdit),
     /// Score the light-field method, the per-view baselines and the ablations against rendered
     /// ground truth (accuracy and angular coherence).
     EvalLightfield(EvalLightFieldArgs),
@@ -70,6 +76,7 @@ fn run() -> Result<()> {
         Command::Eval(a) => run_eval(a),
         Command::Lightfield(a) => run_lightfield(a),
         Command::EvalLightfield(a) => run_eval_lightfield(a),
+        Command::EditLightfield(e) => run_edit_lightfield(e),
         Command::Edit(e) => run_edit(e),
         Command::Whdr(a) => run_whdr(a),
         Command::Bench(a) => run_bench(a),
