@@ -1,6 +1,7 @@
 //! Algorithm 2 of the thesis (ch. 4): the whole light field decomposed at once.
 //!
 //! 1. 4D filtering of the light field `L` (eq. 4.3) gives `L̂`; `S₀ = ‖L̂‖₂`, `R₀ = L̂ / S₀`.
+//!    Off by default (`L̂ = L`), see [`LightFieldParams::input_filter`] for the measurement.
 //! 2. Per view, the albedo cue from `R₀` and the white/black probabilities of `L̂`, and the
 //!    occlusion cue from the disparity ([`super::cues`], eqs. 4.10–4.12).
 //! 3. Per view, the gradient-domain Retinex solve for the log shading `s` ([`super::retinex`],

@@ -162,7 +162,7 @@ mod tests {
             .collect();
         let lf = LightField::from_views(2, 3, &views).unwrap();
         let sheet = contact_sheet(&lf, 1.0, 60);
-        // 3 tiles of 19 px (60/3 = 20 → capped at the view's 10 px) plus gutters.
+        // 3 tiles of 10 px (60/3 = 20, but views are never enlarged) plus 2-px gutters.
         assert_eq!(sheet.dimensions(), (3 * 10 + 4, 2 * 8 + 2));
         let at = |x, y| sheet.get_pixel(x, y).0;
         let srgb = |v: f32| (linear_to_srgb(v) * 255.0).round() as u8;
