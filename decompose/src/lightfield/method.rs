@@ -394,5 +394,21 @@ pub fn per_view(
     })
 }
 
+/// The per-view Retinex baseline: Zhao et al. ([`crate::retinex`], default parameters) on every
+/// view alone.
+pub fn per_view_retinex(lf: &LightField) -> Result<LightFieldDecomposition> {
+    use crate::retinex::{self, RetinexParams, Strokes};
+    per_view(lf, |img| {
+        retinex::decompose(
+            img,
+            None,
+            &Strokes::default(),
+            &RetinexParams::default(),
+            &mut |_| {},
+        )
+        .map(|(d, _)| d)
+    })
+}
+
 #[cfg(test)]
 mod tests;

@@ -110,10 +110,9 @@ pub(crate) fn run_bench(a: BenchArgs) -> Result<()> {
 
 /// The light-field method and per-view Retinex on one synthetic 9×9 light field.
 fn bench_lightfield(size: u32) -> Result<()> {
-    use decompose::lightfield::method::per_view;
+    use decompose::lightfield::method::per_view_retinex;
     use decompose::lightfield::synthetic::card_in_front_of_a_wall;
     use decompose::lightfield::{LightFieldParams, decompose as decompose_lf};
-    use decompose::retinex::{self, RetinexParams, Strokes};
     if !(16..=2048).contains(&size) {
         anyhow::bail!("--lightfield SIZE must be between 16 and 2048, got {size}");
     }
@@ -137,16 +136,7 @@ fn bench_lightfield(size: u32) -> Result<()> {
     ))?;
     let _ = std::fs::write("/proc/self/clear_refs", "5");
     let t = Instant::now();
-    per_view(&lf, |img| {
-        retinex::decompose(
-            img,
-            None,
-            &Strokes::default(),
-            &RetinexParams::default(),
-            &mut |_| {},
-        )
-        .map(|(d, _)| d)
-    })?;
+    per_view_retinex(&lf)?;
     let zhao = t.elapsed().as_secs_f64();
     out(&format!(
         "per-view Retinex (81 views)  {zhao:>8.2} s   peak RSS {:.0} MiB\nratio (ours / per-view)      {:>8.2}\n",

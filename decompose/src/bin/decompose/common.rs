@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use decompose::io::{self, LoadOptions};
+use decompose::io::{self, Depth, Encoding, LoadOptions};
 use decompose::{Image, Mask};
 
 /// Writes to stdout, turning a closed pipe into an error instead of a panic.
@@ -45,4 +45,19 @@ pub(crate) fn load_masks(paths: &[PathBuf]) -> Result<Vec<Mask>> {
         .iter()
         .map(|p| io::load_mask(p).with_context(|| format!("reading mask {}", p.display())))
         .collect()
+}
+
+/// The encoding and bit depth of written images from `--linear-output` and `--depth`.
+pub(crate) fn output_format(linear_output: bool, depth: u8) -> (Encoding, Depth) {
+    let enc = if linear_output {
+        Encoding::Linear
+    } else {
+        Encoding::Srgb
+    };
+    let depth = if depth > 8 {
+        Depth::Sixteen
+    } else {
+        Depth::Eight
+    };
+    (enc, depth)
 }

@@ -24,6 +24,17 @@ pub(crate) struct EditIo {
     opts: DecomposeArgs,
 }
 
+/// The recolouring of `decompose edit recolour` and `decompose edit-lightfield recolour`.
+#[derive(Args, Clone, Copy)]
+pub(crate) struct HueSaturation {
+    /// Hue rotation in degrees.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub(crate) hue: f32,
+    /// Saturation factor.
+    #[arg(long, default_value_t = 1.0)]
+    pub(crate) saturation: f32,
+}
+
 #[derive(Subcommand)]
 pub(crate) enum EditCommand {
     /// Rotate the reflectance hue / scale its saturation (inside --region or everywhere).
@@ -33,12 +44,8 @@ pub(crate) enum EditCommand {
         /// Region to recolour (mask image).
         #[arg(long)]
         region: Option<PathBuf>,
-        /// Hue rotation in degrees.
-        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-        hue: f32,
-        /// Saturation factor.
-        #[arg(long, default_value_t = 1.0)]
-        saturation: f32,
+        #[command(flatten)]
+        colour: HueSaturation,
     },
     /// Replace the reflectance inside --region by a tiled texture, keeping the shading.
     Retexture {
@@ -120,12 +127,16 @@ pub(crate) fn run_edit(e: EditCommand) -> Result<()> {
         EditCommand::Recolour {
             io: a,
             region,
-            hue,
-            saturation,
+            colour,
         } => {
             let (_, run) = decompose_file(&a)?;
             let region = region.map(io::load_mask).transpose()?;
-            let out = edit::recolour(&run.decomposition, region.as_ref(), hue, saturation)?;
+            let out = edit::recolour(
+                &run.decomposition,
+                region.as_ref(),
+                colour.hue,
+                colour.saturation,
+            )?;
             save_edit(&a.out, &out)
         }
         EditCommand::Retexture {

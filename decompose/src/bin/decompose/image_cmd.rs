@@ -9,11 +9,11 @@ use indicatif::ProgressBar;
 
 use decompose::clustering::{self, ClusteringParams};
 use decompose::color_retinex::{self, ColorRetinexParams};
-use decompose::io::{self, Depth, Encoding};
+use decompose::io;
 use decompose::retinex::{self, RetinexParams, Strokes};
 use decompose::{Decomposition, Image, Labels, Mask, Progress, plot};
 
-use crate::common::{bar, load_input, load_masks};
+use crate::common::{bar, load_input, load_masks, output_format};
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
 pub(crate) enum Method {
@@ -79,22 +79,6 @@ pub(crate) struct ImageArgs {
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
-}
-
-#[derive(Args)]
-pub(crate) struct EvalArgs {
-    /// Directory with one folder per object holding original/diffuse/reflectance/shading/mask.
-    #[arg(long)]
-    mit: PathBuf,
-    /// Write the numbers as JSON keyed by method.
-    #[arg(long)]
-    json: Option<PathBuf>,
-    /// Use original.png (with specularities) as input instead of diffuse.png.
-    #[arg(long)]
-    original: bool,
-    /// Methods to run (default: all).
-    #[arg(long, value_enum, value_delimiter = ',')]
-    methods: Vec<Method>,
 }
 
 pub(crate) struct Run {
@@ -181,16 +165,7 @@ pub(crate) fn run_image(a: ImageArgs) -> Result<()> {
     pb.finish_and_clear();
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("creating {}", a.out_dir.display()))?;
-    let enc = if a.linear_output {
-        Encoding::Linear
-    } else {
-        Encoding::Srgb
-    };
-    let depth = if a.depth > 8 {
-        Depth::Sixteen
-    } else {
-        Depth::Eight
-    };
+    let (enc, depth) = output_format(a.linear_output, a.depth);
     let d = &run.decomposition;
     io::save(
         a.out_dir.join("reflectance.png"),

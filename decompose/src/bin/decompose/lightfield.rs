@@ -20,7 +20,7 @@ use decompose::lightfield::{
 };
 use decompose::progress::Progress;
 
-use crate::common::bar;
+use crate::common::{bar, output_format};
 
 /// A view grid `ROWSxCOLS`.
 #[derive(Clone, Copy, Debug)]
@@ -314,16 +314,7 @@ pub(crate) fn run_lightfield(a: LightFieldArgs) -> Result<()> {
     let started = std::time::Instant::now();
     let (d, info) = a.input.run(&folder, disparity.as_ref(), a.quiet)?;
     let wall = started.elapsed().as_secs_f64();
-    let enc = if a.linear_output {
-        Encoding::Linear
-    } else {
-        Encoding::Srgb
-    };
-    let depth = if a.depth > 8 {
-        Depth::Sixteen
-    } else {
-        Depth::Eight
-    };
+    let (enc, depth) = output_format(a.linear_output, a.depth);
     let shading_scale = write_results(
         &staged.staging,
         &folder,

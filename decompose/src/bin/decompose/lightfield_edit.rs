@@ -10,7 +10,7 @@ use decompose::lightfield::edit::{recolour, region_to_every_view, relight};
 use decompose::lightfield::io::{contact_sheet, write_views};
 use decompose::lightfield::propagate::disparity_to_every_view;
 
-use crate::edit::parse_curve;
+use crate::edit::{HueSaturation, parse_curve};
 use crate::lightfield::{LightFieldInputArgs, StagedFolder};
 
 #[derive(Args)]
@@ -39,12 +39,8 @@ pub(crate) enum LightFieldEdit {
         /// Region on the centre view (mask image, white = edit).
         #[arg(long)]
         region: Option<PathBuf>,
-        /// Hue rotation in degrees.
-        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-        hue: f32,
-        /// Saturation factor.
-        #[arg(long, default_value_t = 1.0)]
-        saturation: f32,
+        #[command(flatten)]
+        colour: HueSaturation,
     },
     /// Remap the shading of every view through one curve "x:y,x:y,..." (x, y in [0, 1] of the
     /// light field's shading maximum).
@@ -92,12 +88,9 @@ pub(crate) fn run_edit_lightfield(e: LightFieldEdit) -> Result<()> {
         .input
         .run(&folder, disparity.as_ref(), io_args.quiet)?;
     let edited = match (&e, curve) {
-        (
-            LightFieldEdit::Recolour {
-                hue, saturation, ..
-            },
-            _,
-        ) => recolour(&d, region.as_ref(), *hue, *saturation)?,
+        (LightFieldEdit::Recolour { colour, .. }, _) => {
+            recolour(&d, region.as_ref(), colour.hue, colour.saturation)?
+        }
         (LightFieldEdit::Relight { .. }, Some(curve)) => relight(&d, &curve)?,
         (LightFieldEdit::Relight { .. }, None) => unreachable!("the curve was parsed above"),
     };

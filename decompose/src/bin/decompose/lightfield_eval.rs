@@ -11,10 +11,9 @@ use clap::{Args, ValueEnum};
 use decompose::clustering::{self, ClusteringParams};
 use decompose::lightfield::eval::{LightFieldScores, evaluate};
 use decompose::lightfield::io::load_truth;
-use decompose::lightfield::method::per_view;
+use decompose::lightfield::method::{per_view, per_view_retinex};
 use decompose::lightfield::propagate::disparity_to_every_view;
 use decompose::lightfield::{LightFieldParams, decompose as decompose_lf};
-use decompose::retinex::{self, RetinexParams, Strokes};
 
 use crate::common::out;
 
@@ -135,16 +134,7 @@ pub(crate) fn run_eval_lightfield(a: EvalLightFieldArgs) -> Result<()> {
                     white_black_cue: false,
                     ..Default::default()
                 }),
-                LfMethod::Retinex => per_view(lf, |img| {
-                    retinex::decompose(
-                        img,
-                        None,
-                        &Strokes::default(),
-                        &RetinexParams::default(),
-                        &mut |_| {},
-                    )
-                    .map(|(d, _)| d)
-                }),
+                LfMethod::Retinex => per_view_retinex(lf),
                 LfMethod::Clustering => per_view(lf, |img| {
                     clustering::decompose(img, None, &ClusteringParams::default(), &mut |_| {})
                         .map(|o| o.decomposition)
