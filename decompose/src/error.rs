@@ -110,6 +110,50 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// A folder given as a frame sequence holds no image file.
+    #[error("no frames in {path} (expected PNG, JPEG or TIFF files)")]
+    NoFrames {
+        /// The folder.
+        path: PathBuf,
+    },
+    /// One frame of a sequence cannot be read or decoded; the cause is the source.
+    #[error("cannot read frame {index} ({path})")]
+    Frame {
+        /// Position of the frame in the sequence, from 0.
+        index: usize,
+        /// The frame's file.
+        path: PathBuf,
+        /// What went wrong.
+        source: Box<Error>,
+    },
+    /// A frame's size differs from the first frame's.
+    #[error("frame {index} ({path}) is {got:?} pixels but frame 0 is {expected:?}")]
+    FrameSize {
+        /// Position of the frame in the sequence, from 0.
+        index: usize,
+        /// The frame's file.
+        path: PathBuf,
+        /// Frame 0's (width, height).
+        expected: (u32, u32),
+        /// This frame's (width, height).
+        got: (u32, u32),
+    },
+    /// `ffmpeg` could not decode a file (not a video, or a codec it lacks).
+    #[error("ffmpeg cannot decode {path}: {message}")]
+    Ffmpeg {
+        /// The input file.
+        path: PathBuf,
+        /// The last line ffmpeg wrote to its standard error.
+        message: String,
+    },
+    /// An external program the operation needs is not installed.
+    #[error("{program} is not installed or not on PATH ({hint})")]
+    MissingProgram {
+        /// The program that was run.
+        program: String,
+        /// How to get it.
+        hint: &'static str,
+    },
 }
 
 /// The crate's result type.

@@ -1,0 +1,19 @@
+//! Intrinsic video (Ye, Garces, Liu, Dai & Gutierrez, "Intrinsic Video and Applications",
+//! SIGGRAPH 2014; thesis ch. 3, Algorithm 1).
+//!
+//! Decomposing every frame on its own flickers. The method decomposes the first frame only
+//! (the Retinex of [`crate::retinex`]), groups its reflectance into clusters, and carries the
+//! clusters forward along the optical flow; pixels the propagation cannot assign with
+//! confidence are completed by a local decomposition, and the video is walked forwards and
+//! backwards so that every pixel ends up assigned once. The pieces, each a module of its own:
+//!
+//! - [`frames`]: the input, a folder of frames or a video file decoded by the system's
+//!   `ffmpeg`, read lazily one frame at a time so that memory does not grow with the length
+//!   (backward passes re-read frames from disk);
+//! - [`segment`]: step 2, the reflectance clusters of the first frame: Felzenszwalb–Huttenlocher
+//!   graph segmentation (σ = 0.8, K = 50, min = 256, §3.4) and the merge of adjacent segments
+//!   by mean colour;
+//! - `flow`: step 3, optical flow between consecutive frames.
+
+
+pub mod segment;
