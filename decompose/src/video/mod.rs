@@ -15,5 +15,5 @@
 //!   by mean colour;
 //! - `flow`: step 3, optical flow between consecutive frames.
 
-
+pub mod frames;
 pub mod segment;
