@@ -2,7 +2,7 @@
 //! no codec library. A video is decoded once, when it is opened, into a folder of lossless
 //! PNG frames; from then on it is read like any folder of frames. That gives random access
 //! (the backward passes of the method revisit frames) with memory bounded by one frame, at the
-//! price of disk space: about the size of the frames as PNG (≈ 0.5–1.5 MB per 800×600 frame),
+//! price of disk space: the frames as PNG (0.9–1.05 MB per 800×600 frame of the fixture photos),
 //! in a scratch folder that is deleted when the [`super::FrameSource`] is dropped.
 //!
 //! The command is `ffmpeg -nostdin -loglevel error -i INPUT -map 0:v:0 -vsync passthrough

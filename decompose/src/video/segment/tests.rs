@@ -401,3 +401,33 @@ fn merge_matches_scikit_image_rag_merging() {
         }
     }
 }
+
+#[test]
+fn grid_lists_every_8_neighbour_pair_once() {
+    for (w, h) in [(1usize, 1usize), (1, 4), (5, 1), (4, 3), (7, 6)] {
+        let grid = Grid { w, h };
+        let n: usize = grid.blocks().iter().sum();
+        let mut got: Vec<(u32, u32)> = (0..n as u32)
+            .map(|i| {
+                let (p, q) = grid.ends(i);
+                (p.min(q), p.max(q))
+            })
+            .collect();
+        got.sort_unstable();
+        let mut want = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                let p = (y * w + x) as u32;
+                for (dx, dy) in [(1i64, 0i64), (0, 1), (1, 1), (-1, 1)] {
+                    let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                    if nx >= 0 && nx < w as i64 && ny < h as i64 {
+                        let q = (ny as usize * w + nx as usize) as u32;
+                        want.push((p.min(q), p.max(q)));
+                    }
+                }
+            }
+        }
+        want.sort_unstable();
+        assert_eq!(got, want, "{w}x{h}");
+    }
+}
