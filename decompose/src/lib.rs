@@ -8,6 +8,9 @@
 //!   2012 (thesis §3.4, eqs. 3.12–3.15);
 //! - [`color_retinex`]: Color Retinex (Grosse et al. 2009), the MIT benchmark's baseline.
 //!
+//! Beyond single images: [`lightfield`] (thesis ch. 4) and [`video`] (thesis ch. 3, in
+//! progress).
+//!
 //! Around them: image files ([`io`]), error measures ([`metrics`]: LMSE, scale-invariant MSE,
 //! WHDR), synthetic ground truth ([`synthetic`]), editing applications ([`edit`]) and plots
 //! ([`plot`]). The library never prints; long runs report through a [`progress`] callback.

@@ -8,7 +8,8 @@
 //! The command is `ffmpeg -nostdin -loglevel error -i INPUT -map 0:v:0 -vsync passthrough
 //! -pix_fmt rgb24 -f image2 DIR/%06d.png`: the first video stream, every decoded frame exactly
 //! once (no frame-rate conversion), 8-bit RGB. With `-loglevel error` ffmpeg writes only
-//! errors, whose last line goes into [`Error::Ffmpeg`].
+//! errors, whose last line goes into [`Error::Ffmpeg`]. `-vsync` rather than its successor
+//! `-fps_mode` (ffmpeg ≥ 5.1) so that ffmpeg 4 works too.
 //!
 //! Sources deeper than 8 bits are reduced to 8. A 16-bit route (`-pix_fmt rgb48be`) was tried
 //! and left out: ffmpeg 5.1's conversion of an 8-bit RGB video to it is off by up to 279/65535
