@@ -253,6 +253,18 @@ pub fn felzenszwalb(img: &Image, params: &FelzenszwalbParams) -> Result<Labels> 
     Ok(relabel(w, h, |i| forest.find(i as u32)))
 }
 
+/// Step 2 of the method (§3.4) in one call: [`felzenszwalb`] on `reflectance` (the first
+/// frame's, linear RGB), then [`merge_by_mean`] of the segments by their mean reflectance.
+pub fn reflectance_clusters(
+    reflectance: &Image,
+    segmentation: &FelzenszwalbParams,
+    merge: &MeanMergeParams,
+) -> Result<Labels> {
+    merge.validate()?;
+    let segments = felzenszwalb(reflectance, segmentation)?;
+    merge_by_mean(&segments, reflectance, merge)
+}
+
 /// Numbers the classes of `class(i)` by first appearance in row-major order.
 pub(super) fn relabel(w: usize, h: usize, mut class: impl FnMut(usize) -> u32) -> Labels {
     let n = w * h;

@@ -291,6 +291,26 @@ fn merge_recomputes_means_after_each_join() {
 }
 
 #[test]
+fn reflectance_clusters_segment_then_merge() {
+    // The six rectangles with the top-left one's neighbour moved to 0.03 (per channel) from
+    // it: segmentation keeps six, the merge at 0.1 joins that pair only.
+    let (w, h) = (60u32, 40u32);
+    let mut colours = COLOURS;
+    colours[1] = [0.93, 0.13, 0.13];
+    let img = Image::from_fn(w, h, |x, y| colours[(y / 20 * 3 + x / 20) as usize]);
+    let seg = FelzenszwalbParams {
+        sigma: 0.0,
+        min_size: 100,
+        ..Default::default()
+    };
+    assert_eq!(felzenszwalb(&img, &seg).unwrap().count, 6);
+    let c = reflectance_clusters(&img, &seg, &MeanMergeParams::default()).unwrap();
+    assert_eq!(c.count, 5);
+    assert_eq!(c.data[10 * 60 + 10], c.data[10 * 60 + 30]);
+    assert_contiguous(&c);
+}
+
+#[test]
 fn merge_checks_its_inputs() {
     let img = Image::new(4, 4, 3);
     let labels = relabel(4, 3, |_| 0);
