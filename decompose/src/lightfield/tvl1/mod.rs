@@ -181,7 +181,7 @@ impl TvL1Params {
 }
 
 /// What happened in one [`tv_l1`] run.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct TvL1Info {
     /// Iterations performed.
     pub iterations: usize,
