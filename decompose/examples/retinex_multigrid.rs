@@ -137,30 +137,32 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("Jacobi".to_string(), Preconditioner::Jacobi),
         ("multigrid".to_string(), Preconditioner::default()),
     ];
+    if std::env::var("ONLY_MG").is_ok() {
+        variants.remove(0);
+    }
     if sweep {
-        for (cycle, a, nu, c) in [
-            (Cycle::V, 1.0, 1, 1024),
-            (Cycle::V, 1.5, 1, 1024),
-            (Cycle::V, 1.8, 1, 1024),
-            (Cycle::K, 1.0, 1, 1024),
-            (Cycle::K, 1.5, 1, 1024),
-            (Cycle::K, 1.8, 1, 1024),
-            (Cycle::K, 1.5, 2, 1024),
-            (Cycle::K, 1.5, 1, 256),
-            (Cycle::K, 1.5, 1, 4096),
+        for (cycle, a, nu, c, strength) in [
+            (Cycle::V, 1.0, 1, 1024, 0.1),
+            (Cycle::V, 1.5, 1, 1024, 0.1),
+            (Cycle::K, 1.0, 1, 1024, 0.0),
+            (Cycle::K, 1.5, 1, 1024, 0.1),
+            (Cycle::K, 1.0, 2, 1024, 0.1),
+            (Cycle::K, 1.0, 1, 256, 0.1),
+            (Cycle::K, 1.0, 1, 4096, 0.1),
         ] {
             let mg = MultigridParams {
                 over_correction: a,
                 smoothing_steps: nu,
                 coarsest_size: c,
                 cycle,
+                strength,
             };
-            let name = format!("{cycle:?} α={a} ν={nu} ≤{c}");
+            let name = format!("{cycle:?} α={a} ν={nu} ≤{c} θ={strength}");
             variants.push((name, Preconditioner::Multigrid(mg)));
         }
     }
     println!(
-        "{:<24} {:<5} {:>6} {:>9} {:>6} {:>9} {:>9} {:>10}",
+        "{:<30} {:<5} {:>6} {:>9} {:>6} {:>9} {:>9} {:>10}",
         "preconditioner", "start", "iters", "residual", "levels", "wall ms", "CPU ms", "max |Δs|"
     );
     for (name, preconditioner) in variants {
@@ -168,6 +170,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             preconditioner,
             ..Default::default()
         };
+        // Set-up alone: the normal equations, the hierarchy, the first residual.
+        let setup = ViewSolveParams {
+            max_iterations: 0,
+            ..params.clone()
+        };
+        let (.., mut wall, mut cpu) = solve(&right, &right.log_i, &setup);
+        if std::env::var("SETUP_LOOP").is_ok() {
+            for _ in 0..30 {
+                (.., wall, cpu) = solve(&right, &right.log_i, &setup);
+            }
+        }
+        println!("{name:<30} setup {:>6} {:>9} {:>6} {wall:>9.1} {cpu:>9.1}", 0, "", "");
         for (start_name, start) in [("cold", &right.log_i), ("warm", &parent)] {
             let (s, info, wall, cpu) = solve(&right, start, &params);
             let diff = s
@@ -176,7 +190,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0f32, f32::max);
             println!(
-                "{name:<24} {start_name:<5} {:>6} {:>9.2e} {:>6} {wall:>9.1} {cpu:>9.1} {diff:>10.2e}",
+                "{name:<30} {start_name:<5} {:>6} {:>9.2e} {:>6} {wall:>9.1} {cpu:>9.1} {diff:>10.2e}",
                 info.iterations, info.residual, info.levels
             );
         }

@@ -27,13 +27,17 @@
 
 use super::cues::PairWeights;
 
+mod cholesky;
+mod graph;
+mod grid;
 pub mod multigrid;
 #[cfg(test)]
 mod tests;
 
 pub use multigrid::MultigridParams;
 pub use multigrid::Cycle;
-use multigrid::{Hierarchy, Level};
+use grid::Level;
+use multigrid::Hierarchy;
 
 /// The preconditioner of the conjugate gradients.
 #[derive(Clone, Debug, PartialEq)]
@@ -156,9 +160,9 @@ pub fn solve_view(
             let mut work = hierarchy.work();
             let cycle = |r: &[f64], z: &mut [f64]| hierarchy.precondition(r, z, &mut work);
             let flexible = mg.cycle == Cycle::K;
-            let fine = &hierarchy.levels[0];
+            let fine = &hierarchy.fine;
             let mut info = conjugate_gradients(fine, &b, &mut x, params, flexible, cycle);
-            info.levels = hierarchy.levels.len();
+            info.levels = hierarchy.levels();
             info
         }
     };

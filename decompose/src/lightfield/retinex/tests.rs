@@ -1,6 +1,7 @@
 //! Tests of the per-view solve: against the crate's sparse direct solver, between the two
 //! preconditioners, and of the multigrid pieces (Galerkin operator, symmetry, coarsest solve).
 
+use super::multigrid::Cycle;
 use super::*;
 use crate::solver::{LinearSystem, SolverParams};
 
@@ -113,46 +114,88 @@ fn multigrid_and_jacobi_agree_at_the_default_tolerance_from_a_warm_start() {
     }
 }
 
-#[test]
-fn galerkin_coarse_operator_equals_pt_a_p() {
-    for (w, h) in [(5, 3), (4, 4), (3, 6)] {
-        let n = w * h;
-        let level = Level::new(
-            w,
-            h,
-            pseudo_random(n, 1).iter().map(|v| v + 0.01).collect(),
-            pseudo_random(n, 2).iter().map(|v| if *v > 0.5 { 1.0 } else { 0.01 }).collect(),
-            pseudo_random(n, 3).iter().map(|&v| v as f64 * 1e-2).collect(),
-        );
-        let coarse = level.coarsen();
-        let (cw, ch) = (w.div_ceil(2), h.div_ceil(2));
-        assert_eq!((coarse.width, coarse.height), (cw, ch));
-        let nc = cw * ch;
-        let parent = |p: usize| (p / w / 2) * cw + (p % w) / 2;
-        let a = level.dense();
-        let mut ptap = vec![vec![0.0; nc]; nc];
-        for (p, row) in a.iter().enumerate() {
-            for (q, v) in row.iter().enumerate() {
-                ptap[parent(p)][parent(q)] += v;
-            }
+/// A grid level with random pair weights (some 0.01) and screening.
+fn random_level(w: usize, h: usize, seed: u64) -> Level {
+    let n = w * h;
+    Level::new(
+        w,
+        h,
+        pseudo_random(n, seed).iter().map(|v| v + 0.01).collect(),
+        pseudo_random(n, seed + 1)
+            .iter()
+            .map(|v| if *v > 0.3 { 1.0 } else { 0.01 })
+            .collect(),
+        pseudo_random(n, seed + 2).iter().map(|&v| v as f64 * 1e-2).collect(),
+    )
+}
+
+/// `PᵀAP` with `P` the 0/1 matrix of `aggregate`, from dense matrices.
+fn galerkin(a: &[Vec<f64>], aggregate: &[u32], coarse: usize) -> Vec<Vec<f64>> {
+    let mut out = vec![vec![0.0; coarse]; coarse];
+    for (p, row) in a.iter().enumerate() {
+        for (q, v) in row.iter().enumerate() {
+            out[aggregate[p] as usize][aggregate[q] as usize] += v;
         }
-        for (x, y) in coarse.dense().iter().flatten().zip(ptap.iter().flatten()) {
+    }
+    out
+}
+
+#[test]
+fn coarse_operators_equal_pt_a_p() {
+    for (w, h) in [(5, 3), (4, 4), (3, 6), (7, 7)] {
+        let level = random_level(w, h, 1);
+        let (coarse, aggregate) = graph::coarsen(&level, 0.1);
+        let expected = galerkin(&level.dense(), &aggregate, coarse.len());
+        for (x, y) in coarse.dense().iter().flatten().zip(expected.iter().flatten()) {
             assert!((x - y).abs() < 1e-6, "{w}×{h}: {x} vs {y}");
+        }
+        // And one level further, from a graph.
+        let (coarser, aggregate) = graph::coarsen(&coarse, 0.1);
+        let expected = galerkin(&coarse.dense(), &aggregate, coarser.len());
+        for (x, y) in coarser.dense().iter().flatten().zip(expected.iter().flatten()) {
+            assert!((x - y).abs() < 1e-6, "{w}×{h} level 2: {x} vs {y}");
         }
     }
 }
 
 #[test]
+fn aggregates_do_not_cross_occlusions() {
+    // An occlusion outline (0.01 pairs) between columns 2 and 3, not on a 2×2 block boundary:
+    // the blocks of columns 2–3 split in two, the others are whole 2×2 blocks.
+    let (w, h) = (6, 4);
+    let occlusion = PairWeights::from_pairs(w, h, |p, q| {
+        if (p % w, q % w) == (2, 3) { 0.01 } else { 1.0 }
+    });
+    let level = Level::new(
+        w,
+        h,
+        occlusion.horizontal.clone(),
+        occlusion.vertical.clone(),
+        vec![1e-3; w * h],
+    );
+    let (coarse, aggregate) = graph::coarsen(&level, 0.1);
+    assert_eq!(coarse.len(), 3 * 2 + 2);
+    for y in 0..h {
+        let a = |x: usize| aggregate[y * w + x];
+        assert_ne!(a(2), a(3));
+        assert_eq!((a(0), a(2), a(4)), (a(1), a(2), a(5)));
+    }
+    // Without the cue the same grid is 3×2 whole blocks.
+    let open = Level::new(w, h, vec![1.0; w * h], vec![1.0; w * h], vec![1e-3; w * h]);
+    assert_eq!(graph::coarsen(&open, 0.1).0.len(), 6);
+}
+
+#[test]
 fn the_v_cycle_is_symmetric_positive_definite() {
     let (w, h) = (11, 7);
-    let (_, _, occlusion) = random_view(w, h, 9);
-    let (_, level) = normal_equations(&vec![0.0; w * h], &occlusion, &occlusion, 1e-3);
+    let level = random_level(w, h, 9);
     let params = MultigridParams {
         coarsest_size: 2,
+        cycle: Cycle::V,
         ..Default::default()
     };
     let hierarchy = Hierarchy::new(level, &params);
-    assert_eq!(hierarchy.levels.len(), 4);
+    assert!(hierarchy.levels() >= 4, "{}", hierarchy.levels());
     let mut work = hierarchy.work();
     let dot = |u: &[f64], v: &[f64]| u.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
     let vectors: Vec<Vec<f64>> = (0..4)
