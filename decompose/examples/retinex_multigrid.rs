@@ -13,8 +13,10 @@
 //! rendered scene folder that has `truth/` (scripts/render_lightfields.py) its linear views and
 //! true disparities are upscaled (nearest) to `SIZE`. The cues are computed as in
 //! `lightfield::method`. Columns: iterations, final relative residual, levels, wall and thread
-//! CPU milliseconds, and the largest difference to a solve at tolerance 1e-10. `--sweep` adds
-//! multigrid variants (over-correction, smoothing steps, coarsest size).
+//! CPU milliseconds, and the largest difference to a solve at tolerance 1e-10; the `setup` rows
+//! stop before the first iteration (normal equations, hierarchy, first residual). `--sweep` adds
+//! multigrid variants: θ = 0 aggregates across occlusions, V-cycles with over-correction α,
+//! two smoothing steps, other coarsest sizes.
 
 use std::path::Path;
 use std::time::Instant;
@@ -57,11 +59,7 @@ fn view(w: usize, h: usize, rgb: &[f32], disparity: &[f32], range: (f32, f32)) -
     View {
         log_i,
         albedo: cues::albedo_cue(w, h, rgb, &scaled, &p, true),
-        occlusion: if std::env::var("NO_OCC").is_ok() {
-            PairWeights::constant(w, h, 1.0)
-        } else {
-            cues::occlusion_cue(w, h, disparity, range, &p)
-        },
+        occlusion: cues::occlusion_cue(w, h, disparity, range, &p),
     }
 }
 
@@ -107,7 +105,12 @@ fn views(size: usize, scene: Option<&Path>) -> Result<(View, View), Box<dyn std:
 fn solve(v: &View, start: &[f32], params: &ViewSolveParams) -> (Vec<f32>, ViewSolveInfo, f64, f64) {
     let (t, c) = (Instant::now(), thread_cpu_ns());
     let (s, info) = solve_view(&v.log_i, &v.albedo, &v.occlusion, start, params);
-    (s, info, t.elapsed().as_secs_f64() * 1e3, (thread_cpu_ns() - c) / 1e6)
+    (
+        s,
+        info,
+        t.elapsed().as_secs_f64() * 1e3,
+        (thread_cpu_ns() - c) / 1e6,
+    )
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -118,7 +121,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let scene = rest.get(1).map(Path::new);
     let (centre, right) = views(size, scene)?;
     let n = centre.log_i.len();
-    let occluded = right.occlusion.horizontal.iter().chain(&right.occlusion.vertical);
+    let occluded = right
+        .occlusion
+        .horizontal
+        .iter()
+        .chain(&right.occlusion.vertical);
     println!(
         "view of {n} pixels ({}), occlusion pairs {:.2}%",
         scene.map_or("synthetic card".into(), |p| p.display().to_string()),
@@ -137,14 +144,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("Jacobi".to_string(), Preconditioner::Jacobi),
         ("multigrid".to_string(), Preconditioner::default()),
     ];
-    if std::env::var("ONLY_MG").is_ok() {
-        variants.remove(0);
-    }
     if sweep {
         for (cycle, a, nu, c, strength) in [
+            (Cycle::K, 1.0, 1, 1024, 0.0),
             (Cycle::V, 1.0, 1, 1024, 0.1),
             (Cycle::V, 1.5, 1, 1024, 0.1),
-            (Cycle::K, 1.0, 1, 1024, 0.0),
             (Cycle::K, 1.5, 1, 1024, 0.1),
             (Cycle::K, 1.0, 2, 1024, 0.1),
             (Cycle::K, 1.0, 1, 256, 0.1),
@@ -175,13 +179,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             max_iterations: 0,
             ..params.clone()
         };
-        let (.., mut wall, mut cpu) = solve(&right, &right.log_i, &setup);
-        if std::env::var("SETUP_LOOP").is_ok() {
-            for _ in 0..30 {
-                (.., wall, cpu) = solve(&right, &right.log_i, &setup);
-            }
-        }
-        println!("{name:<30} setup {:>6} {:>9} {:>6} {wall:>9.1} {cpu:>9.1}", 0, "", "");
+        let (.., wall, cpu) = solve(&right, &right.log_i, &setup);
+        println!(
+            "{name:<30} setup {:>6} {:>9} {:>6} {wall:>9.1} {cpu:>9.1}",
+            0, "", ""
+        );
         for (start_name, start) in [("cold", &right.log_i), ("warm", &parent)] {
             let (s, info, wall, cpu) = solve(&right, start, &params);
             let diff = s

@@ -55,18 +55,17 @@ impl BandCholesky {
         y.copy_from_slice(b);
         let l = |i: usize, j: usize| self.factor[i * stride + band - (i - j)];
         for i in 0..n {
-            let mut s = y[i];
-            for k in i.saturating_sub(band)..i {
-                s -= l(i, k) * y[k];
-            }
-            y[i] = s / l(i, i);
+            let lo = i.saturating_sub(band);
+            let s: f64 = (lo..i).zip(&y[lo..i]).map(|(k, yk)| l(i, k) * yk).sum();
+            y[i] = (y[i] - s) / l(i, i);
         }
         for i in (0..n).rev() {
-            let mut s = y[i];
-            for k in i + 1..(i + band + 1).min(n) {
-                s -= l(k, i) * y[k];
-            }
-            y[i] = s / l(i, i);
+            let hi = (i + band + 1).min(n);
+            let s: f64 = (i + 1..hi)
+                .zip(&y[i + 1..hi])
+                .map(|(k, yk)| l(k, i) * yk)
+                .sum();
+            y[i] = (y[i] - s) / l(i, i);
         }
     }
 }

@@ -32,7 +32,7 @@ pub(super) struct Graph {
 }
 
 impl Graph {
-    fn new(
+    pub(super) fn new(
         adjacency: Adjacency,
         screening: Vec<f64>,
         cell: Vec<[u32; 2]>,
@@ -41,7 +41,10 @@ impl Graph {
         let mut diagonal = screening.clone();
         for (p, d) in diagonal.iter_mut().enumerate() {
             let (a, b) = (adjacency.start[p] as usize, adjacency.start[p + 1] as usize);
-            *d += adjacency.weight[a..b].iter().map(|&w| w as f64).sum::<f64>();
+            *d += adjacency.weight[a..b]
+                .iter()
+                .map(|&w| w as f64)
+                .sum::<f64>();
         }
         let inverse_diagonal = diagonal.iter().map(|d| 1.0 / d).collect();
         Self {
@@ -211,7 +214,6 @@ pub(super) fn from_level(level: &Level) -> Graph {
     Graph::new(adjacency, level.screening.clone(), cell, level.grid())
 }
 
-
 /// The aggregates of the next level (see the module docs) and its Galerkin operator:
 /// `(coarse, aggregate)` with `aggregate[p]` the coarse node of node `p`.
 pub(super) fn coarsen(level: &impl Pairs, strength: f64) -> (Graph, Vec<u32>) {
@@ -229,10 +231,10 @@ pub(super) fn coarsen(level: &impl Pairs, strength: f64) -> (Graph, Vec<u32>) {
     // strongest pairs.
     let strongest: Vec<f64> = (0..n)
         .map(|p| {
-        let mut m = 0.0f64;
-        level.for_each_pair(p, cells[p], |_, w| m = m.max(w));
-        m
-    })
+            let mut m = 0.0f64;
+            level.for_each_pair(p, cells[p], |_, w| m = m.max(w));
+            m
+        })
         .collect();
     let mut parent: Vec<u32> = (0..n as u32).collect();
     for p in 0..n {
@@ -266,7 +268,7 @@ pub(super) fn coarsen(level: &impl Pairs, strength: f64) -> (Graph, Vec<u32>) {
         if aggregate[root] == u32::MAX {
             aggregate[root] = coarse_cell.len() as u32;
             let [x, y] = cells[root];
-        coarse_cell.push([x / 2, y / 2]);
+            coarse_cell.push([x / 2, y / 2]);
         }
         aggregate[p as usize] = aggregate[root];
     }
@@ -282,10 +284,9 @@ pub(super) fn coarsen(level: &impl Pairs, strength: f64) -> (Graph, Vec<u32>) {
     }
     let mut members = vec![0u32; n];
     let mut next = first.clone();
-    for p in 0..n {
-        let c = aggregate[p] as usize;
-        members[next[c] as usize] = p as u32;
-        next[c] += 1;
+    for (p, &c) in aggregate.iter().enumerate() {
+        members[next[c as usize] as usize] = p as u32;
+        next[c as usize] += 1;
     }
     // Coarse rows: the pairs of each aggregate's members accumulated per neighbouring
     // aggregate with a marker array (the sparse product PᵀAP in O(pairs)).
@@ -314,12 +315,11 @@ pub(super) fn coarsen(level: &impl Pairs, strength: f64) -> (Graph, Vec<u32>) {
     (coarse, aggregate)
 }
 
-
 /// Compressed rows under construction.
-struct Adjacency {
+pub(super) struct Adjacency {
     start: Vec<u32>,
-    column: Vec<u32>,
-    weight: Vec<f32>,
+    pub column: Vec<u32>,
+    pub weight: Vec<f32>,
 }
 
 impl Default for Adjacency {
@@ -333,12 +333,12 @@ impl Default for Adjacency {
 }
 
 impl Adjacency {
-    fn push(&mut self, q: u32, w: f32) {
+    pub fn push(&mut self, q: u32, w: f32) {
         self.column.push(q);
         self.weight.push(w);
     }
 
-    fn end_row(&mut self) {
+    pub fn end_row(&mut self) {
         self.start.push(self.column.len() as u32);
     }
 }

@@ -2,6 +2,8 @@
 //! Laplacian plus the screening `μI`, with row-wise loops (no per-pixel index arithmetic) since
 //! most of the work of a cycle is spent here.
 
+use super::graph::{Adjacency, Graph};
+
 /// One level: `A x = diagonal ∘ x − Σ_pairs w (x_neighbour)` on a `width × height` grid.
 #[derive(Clone, Debug)]
 pub(super) struct Level {
@@ -73,7 +75,11 @@ impl Level {
     fn apply_row(&self, x: &[f64], y: usize, out: &mut [f64]) {
         let w = self.width;
         let r = y * w;
-        let (xr, hw, d) = (&x[r..r + w], &self.horizontal[r..r + w], &self.diagonal[r..r + w]);
+        let (xr, hw, d) = (
+            &x[r..r + w],
+            &self.horizontal[r..r + w],
+            &self.diagonal[r..r + w],
+        );
         for i in 0..w {
             out[i] = d[i] * xr[i];
         }
@@ -216,4 +222,145 @@ impl Level {
         }
         out
     }
+}
+
+/// The aggregation of [`super::graph::coarsen`] for the pixel grid, block by block without its
+/// generic bookkeeping (sorting by block, union-find arrays): the finest level is the largest,
+/// and its set-up is part of every view's solve. Gives the same aggregates, numbering and coarse
+/// operator, bit for bit (tested).
+pub(super) fn coarsen_grid(level: &Level, strength: f64) -> (Graph, Vec<u32>) {
+    let (w, h) = (level.width, level.height);
+    let (cw, ch) = (w.div_ceil(2), h.div_ceil(2));
+    let (hw, vw) = (&level.horizontal, &level.vertical);
+    let mut strongest = vec![0.0f32; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let p = y * w + x;
+            // The last column's and row's weights are 0, so they can be read unconditionally.
+            let mut m = hw[p].max(vw[p]);
+            if x > 0 {
+                m = m.max(hw[p - 1]);
+            }
+            if y > 0 {
+                m = m.max(vw[p - w]);
+            }
+            strongest[p] = m;
+        }
+    }
+    let strong = |p: usize, q: usize, weight: f32| {
+        weight as f64 >= strength * strongest[p].max(strongest[q]) as f64
+    };
+    let mut aggregate = vec![0u32; w * h];
+    let mut cell = Vec::with_capacity(cw * ch);
+    let mut screening = Vec::with_capacity(cw * ch);
+    // Labels of the four slots (top left, top right, bottom left, bottom right) of every block:
+    // the smallest slot of each slot's component.
+    let mut labels = vec![[0u8; 4]; cw * ch];
+    for by in 0..ch {
+        for bx in 0..cw {
+            let (right, down) = (2 * bx + 1 < w, 2 * by + 1 < h);
+            let a = 2 * by * w + 2 * bx;
+            let mut label = [0u8, 1, 2, 3];
+            let mut join = |i: usize, j: usize| {
+                let (lo, hi) = (label[i].min(label[j]), label[i].max(label[j]));
+                label.iter_mut().filter(|l| **l == hi).for_each(|l| *l = lo);
+            };
+            if right && strong(a, a + 1, hw[a]) {
+                join(0, 1);
+            }
+            if down && strong(a, a + w, vw[a]) {
+                join(0, 2);
+            }
+            if right && down && strong(a + 1, a + w + 1, vw[a + 1]) {
+                join(1, 3);
+            }
+            if right && down && strong(a + w, a + w + 1, hw[a + w]) {
+                join(2, 3);
+            }
+            let mut id = [u32::MAX; 4];
+            for (slot, p, present) in block_slots(a, w, right, down) {
+                if !present {
+                    continue;
+                }
+                let root = label[slot] as usize;
+                if id[root] == u32::MAX {
+                    id[root] = cell.len() as u32;
+                    cell.push([bx as u32, by as u32]);
+                    screening.push(0.0);
+                }
+                aggregate[p] = id[root];
+                screening[id[root] as usize] += level.screening[p];
+            }
+            labels[by * cw + bx] = label;
+        }
+    }
+    // Coarse rows in numbering order: each aggregate's members in pixel order, their pairs (up,
+    // left, right, down) accumulated per neighbouring aggregate with a marker array.
+    let nc = cell.len();
+    let mut adjacency = Adjacency::default();
+    let mut marker = vec![u32::MAX; nc];
+    let mut slot_of = vec![0usize; nc];
+    for by in 0..ch {
+        for bx in 0..cw {
+            let (right, down) = (2 * bx + 1 < w, 2 * by + 1 < h);
+            let a = 2 * by * w + 2 * bx;
+            let label = labels[by * cw + bx];
+            for root in 0..4u8 {
+                let members = block_slots(a, w, right, down)
+                    .filter(|&(slot, _, present)| present && label[slot] == root);
+                let mut any = false;
+                for (slot, p, _) in members {
+                    any = true;
+                    let c = aggregate[p];
+                    let (x, y) = (2 * bx + (slot & 1), 2 * by + (slot >> 1));
+                    let mut visit = |q: usize, weight: f32| {
+                        let d = aggregate[q] as usize;
+                        if d as u32 == c {
+                            return;
+                        }
+                        if marker[d] != c {
+                            marker[d] = c;
+                            slot_of[d] = adjacency.column.len();
+                            adjacency.push(d as u32, weight);
+                        } else {
+                            adjacency.weight[slot_of[d]] += weight;
+                        }
+                    };
+                    if y > 0 {
+                        visit(p - w, vw[p - w]);
+                    }
+                    if x > 0 {
+                        visit(p - 1, hw[p - 1]);
+                    }
+                    if x + 1 < w {
+                        visit(p + 1, hw[p]);
+                    }
+                    if y + 1 < h {
+                        visit(p + w, vw[p]);
+                    }
+                }
+                if any {
+                    adjacency.end_row();
+                }
+            }
+        }
+    }
+    let coarse = Graph::new(adjacency, screening, cell, (cw, ch));
+    (coarse, aggregate)
+}
+
+/// `(slot, pixel, present)` of the four slots of the block whose top-left pixel is `a`.
+fn block_slots(
+    a: usize,
+    w: usize,
+    right: bool,
+    down: bool,
+) -> impl Iterator<Item = (usize, usize, bool)> {
+    [
+        (0, a, true),
+        (1, a + 1, right),
+        (2, a + w, down),
+        (3, a + w + 1, right && down),
+    ]
+    .into_iter()
 }

@@ -18,7 +18,7 @@
 
 use super::cholesky::BandCholesky;
 use super::graph::{self, Graph};
-use super::grid::Level;
+use super::grid::{self, Level};
 
 /// How a level solves its coarse problem.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -95,7 +95,7 @@ impl Hierarchy {
         let mut aggregates = Vec::new();
         // Level 0 is aggregated straight from the grid (no graph copy of the finest level).
         if fine.width * fine.height > params.coarsest_size.max(1) {
-            let (next, aggregate) = graph::coarsen(&fine, params.strength);
+            let (next, aggregate) = grid::coarsen_grid(&fine, params.strength);
             if next.len() * 5 <= fine.width * fine.height * 4 {
                 aggregates.push(aggregate);
                 coarse.push(next);
@@ -188,7 +188,8 @@ impl Hierarchy {
         // Restriction: `Pᵀ (b − A x)`; on the grid row by row, without a residual vector.
         w.b.fill(0.0);
         if level == 0 {
-            self.fine.restrict_residual(b, x, aggregate, &mut w.b, &mut w.row);
+            self.fine
+                .restrict_residual(b, x, aggregate, &mut w.b, &mut w.row);
         } else {
             self.apply(level, x, &mut w.residual);
             for ((ax, bi), &c) in w.residual.iter().zip(b).zip(aggregate) {
@@ -241,7 +242,10 @@ impl Hierarchy {
         self.apply(level, c2, v2);
         let (gamma, beta, alpha2) = (dot(c2, v1), dot(c2, v2), dot(c2, r2));
         let rho2 = (beta - gamma * gamma / rho1).max(f64::MIN_POSITIVE);
-        let (s1, s2) = (alpha1 / rho1 - gamma * alpha2 / (rho1 * rho2), alpha2 / rho2);
+        let (s1, s2) = (
+            alpha1 / rho1 - gamma * alpha2 / (rho1 * rho2),
+            alpha2 / rho2,
+        );
         for (x, c2) in x.iter_mut().zip(c2.iter()) {
             *x = s1 * *x + s2 * c2;
         }

@@ -125,7 +125,10 @@ fn random_level(w: usize, h: usize, seed: u64) -> Level {
             .iter()
             .map(|v| if *v > 0.3 { 1.0 } else { 0.01 })
             .collect(),
-        pseudo_random(n, seed + 2).iter().map(|&v| v as f64 * 1e-2).collect(),
+        pseudo_random(n, seed + 2)
+            .iter()
+            .map(|&v| v as f64 * 1e-2)
+            .collect(),
     )
 }
 
@@ -146,15 +149,36 @@ fn coarse_operators_equal_pt_a_p() {
         let level = random_level(w, h, 1);
         let (coarse, aggregate) = graph::coarsen(&level, 0.1);
         let expected = galerkin(&level.dense(), &aggregate, coarse.len());
-        for (x, y) in coarse.dense().iter().flatten().zip(expected.iter().flatten()) {
+        for (x, y) in coarse
+            .dense()
+            .iter()
+            .flatten()
+            .zip(expected.iter().flatten())
+        {
             assert!((x - y).abs() < 1e-6, "{w}×{h}: {x} vs {y}");
         }
         // And one level further, from a graph.
         let (coarser, aggregate) = graph::coarsen(&coarse, 0.1);
         let expected = galerkin(&coarse.dense(), &aggregate, coarser.len());
-        for (x, y) in coarser.dense().iter().flatten().zip(expected.iter().flatten()) {
+        for (x, y) in coarser
+            .dense()
+            .iter()
+            .flatten()
+            .zip(expected.iter().flatten())
+        {
             assert!((x - y).abs() < 1e-6, "{w}×{h} level 2: {x} vs {y}");
         }
+    }
+}
+
+#[test]
+fn the_grid_aggregation_is_the_general_one() {
+    for (w, h, seed) in [(8, 6, 1), (7, 5, 2), (1, 5, 3), (6, 1, 4), (13, 9, 5)] {
+        let level = random_level(w, h, seed);
+        let (fast, fast_aggregate) = grid::coarsen_grid(&level, 0.1);
+        let (general, aggregate) = graph::coarsen(&level, 0.1);
+        assert_eq!(fast_aggregate, aggregate, "{w}×{h}");
+        assert_eq!(fast.dense(), general.dense(), "{w}×{h}");
     }
 }
 
@@ -163,9 +187,14 @@ fn aggregates_do_not_cross_occlusions() {
     // An occlusion outline (0.01 pairs) between columns 2 and 3, not on a 2×2 block boundary:
     // the blocks of columns 2–3 split in two, the others are whole 2×2 blocks.
     let (w, h) = (6, 4);
-    let occlusion = PairWeights::from_pairs(w, h, |p, q| {
-        if (p % w, q % w) == (2, 3) { 0.01 } else { 1.0 }
-    });
+    let occlusion =
+        PairWeights::from_pairs(
+            w,
+            h,
+            |p, q| {
+                if (p % w, q % w) == (2, 3) { 0.01 } else { 1.0 }
+            },
+        );
     let level = Level::new(
         w,
         h,
@@ -199,7 +228,12 @@ fn the_v_cycle_is_symmetric_positive_definite() {
     let mut work = hierarchy.work();
     let dot = |u: &[f64], v: &[f64]| u.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
     let vectors: Vec<Vec<f64>> = (0..4)
-        .map(|k| pseudo_random(w * h, 20 + k).iter().map(|&v| v as f64 - 0.5).collect())
+        .map(|k| {
+            pseudo_random(w * h, 20 + k)
+                .iter()
+                .map(|&v| v as f64 - 0.5)
+                .collect()
+        })
         .collect();
     let mut images = vec![vec![0.0; w * h]; vectors.len()];
     for (u, bu) in vectors.iter().zip(&mut images) {
@@ -258,7 +292,10 @@ fn multigrid_needs_far_fewer_iterations_than_jacobi_on_a_128_view() {
     };
     let jacobi = iterations(Preconditioner::Jacobi);
     let multigrid = iterations(Preconditioner::default());
-    assert!(5 * multigrid < jacobi, "multigrid {multigrid}, Jacobi {jacobi}");
+    assert!(
+        5 * multigrid < jacobi,
+        "multigrid {multigrid}, Jacobi {jacobi}"
+    );
 }
 
 #[test]
