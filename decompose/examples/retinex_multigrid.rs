@@ -56,10 +56,18 @@ fn view(w: usize, h: usize, rgb: &[f32], disparity: &[f32], range: (f32, f32)) -
     sorted.sort_by(f32::total_cmp);
     let white = sorted[(sorted.len() as f64 * 0.995) as usize].max(1e-6);
     let scaled: Vec<f32> = rgb.iter().map(|x| x / white).collect();
+    // The cues are part of the method's "cues and Retinex solves" stage too.
+    let c = thread_cpu_ns();
+    let albedo = cues::albedo_cue(w, h, rgb, &scaled, &p, true);
+    let occlusion = cues::occlusion_cue(w, h, disparity, range, &p);
+    println!(
+        "cues of one view: {:.1} CPU ms",
+        (thread_cpu_ns() - c) / 1e6
+    );
     View {
         log_i,
-        albedo: cues::albedo_cue(w, h, rgb, &scaled, &p, true),
-        occlusion: cues::occlusion_cue(w, h, disparity, range, &p),
+        albedo,
+        occlusion,
     }
 }
 

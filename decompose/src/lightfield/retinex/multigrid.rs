@@ -1,11 +1,11 @@
 //! Aggregation multigrid for the per-view system `A = L(ω^occ) + μI` (see the parent module),
 //! used as the preconditioner of conjugate gradients.
 //!
-//! Level 0 is the pixel grid ([`super::grid`]); each coarser level aggregates 2×2 blocks of the
-//! previous level's cells, split where a block is crossed by weak (occlusion) pairs, with
+//! Level 0 is the pixel grid (`retinex/grid.rs`); each coarser level aggregates 2×2 blocks of
+//! the previous level's cells, split where a block is crossed by weak (occlusion) pairs, with
 //! piecewise-constant prolongation `P` and the Galerkin operator `PᵀAP`, again a graph
-//! Laplacian plus screening ([`super::graph`]), down to a level small enough for an exact banded
-//! Cholesky solve ([`super::cholesky`]).
+//! Laplacian plus screening (`retinex/graph.rs`), down to a level small enough for an exact
+//! banded Cholesky solve (`retinex/cholesky.rs`).
 //!
 //! A cycle on level `l` from `x = 0`: one forward Gauss–Seidel sweep, restriction of the
 //! residual (`Pᵀ`), the coarse problem, `x += α P x_c`, one backward Gauss–Seidel sweep. The
@@ -13,8 +13,8 @@
 //! V-cycle is a symmetric preconditioner (positive definite for `α < 2`). The K-cycle (Notay &
 //! Vassilevski 2008, "Recursive Krylov-based multigrid cycles") solves each coarse problem
 //! with two steps of conjugate gradients preconditioned by the next cycle; unsmoothed
-//! aggregation loses accuracy with every level of a V-cycle, and the K-cycle removes that
-//! dependence for about twice the coarse work.
+//! aggregation loses accuracy with every level of a V-cycle, and the K-cycle largely removes
+//! that for about twice the coarse work (on a 512² view, 6 levels: 11 iterations against 22).
 
 use super::cholesky::BandCholesky;
 use super::graph::{self, Graph};
@@ -26,7 +26,7 @@ pub enum Cycle {
     /// One recursive cycle: cheapest, but unsmoothed aggregation loses accuracy with every level.
     V,
     /// Two recursive cycles accelerated by conjugate gradients on every coarse level (Notay &
-    /// Vassilevski 2008): about twice the coarse work, convergence independent of the depth.
+    /// Vassilevski 2008): about twice the coarse work, convergence nearly independent of depth.
     /// Makes the preconditioner nonlinear, so the outer solve is flexible CG.
     K,
 }
@@ -36,7 +36,8 @@ pub enum Cycle {
 pub struct MultigridParams {
     /// `α`: factor on the coarse correction, in (0, 2): piecewise-constant prolongation makes
     /// the coarse operator stiffer than a rediscretisation, and a V-cycle under-corrects smooth
-    /// errors (Braess 1995). Default 1 (measured: see the parent module's table).
+    /// errors (Braess 1995). Default 1: with the K-cycle, 1.5 saves at most 2 iterations
+    /// (parent module's figures).
     pub over_correction: f64,
     /// Gauss–Seidel sweeps before and after the coarse correction. Default 1.
     pub smoothing_steps: usize,
@@ -44,7 +45,7 @@ pub struct MultigridParams {
     /// exactly by a banded Cholesky factorisation. Default 1024 (about 32² for a square view).
     pub coarsest_size: usize,
     /// A pair joins an aggregate only if its weight is at least this fraction of the stronger
-    /// of its two nodes' strongest pairs ([`super::graph`]). Default 0.1: the occlusion cue's
+    /// of its two nodes' strongest pairs (`retinex/graph.rs`). Default 0.1: the occlusion cue's
     /// 0.01 pairs are weak, the albedo cue does not enter `A`.
     pub strength: f64,
     /// The cycle. Default [`Cycle::K`].
