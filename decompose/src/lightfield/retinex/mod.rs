@@ -164,6 +164,14 @@ pub fn solve_view(
     let n = occlusion.width * occlusion.height;
     debug_assert_eq!(log_intensity.len(), n);
     debug_assert_eq!(initial.len(), n);
+    if n == 0 {
+        // Nothing to solve (and the grid levels assume at least one pixel).
+        let info = ViewSolveInfo {
+            converged: true,
+            ..Default::default()
+        };
+        return (Vec::new(), info);
+    }
     let (b, a) = normal_equations(log_intensity, albedo, occlusion, params.mu);
     let mut x: Vec<f64> = initial.iter().map(|&v| v as f64).collect();
     let info = match &params.preconditioner {

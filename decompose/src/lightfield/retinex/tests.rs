@@ -172,6 +172,20 @@ fn coarse_operators_equal_pt_a_p() {
 }
 
 #[test]
+fn an_empty_view_and_a_single_pixel_are_solved() {
+    let none = PairWeights::constant(0, 0, 1.0);
+    let (s, info) = solve_view(&[], &none, &none, &[], &ViewSolveParams::default());
+    assert!(s.is_empty() && info.converged);
+    // One pixel: only the data term, s = i.
+    let one = PairWeights::constant(1, 1, 1.0);
+    let (s, info) = solve_view(&[0.7], &one, &one, &[0.0], &ViewSolveParams::default());
+    assert!(
+        info.converged && (s[0] - 0.7).abs() < 1e-5,
+        "{s:?} {info:?}"
+    );
+}
+
+#[test]
 fn the_grid_aggregation_is_the_general_one() {
     for (w, h, seed) in [(8, 6, 1), (7, 5, 2), (1, 5, 3), (6, 1, 4), (13, 9, 5)] {
         let level = random_level(w, h, seed);
