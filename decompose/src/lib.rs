@@ -48,6 +48,7 @@ pub mod progress;
 pub mod retinex;
 pub mod solver;
 pub mod synthetic;
+pub mod video;
 
 pub use decomposition::{Decomposition, Labels};
 pub use error::{Error, Result};
