@@ -53,6 +53,8 @@ mod plane;
 mod tvl1;
 
 #[cfg(test)]
+mod reference_tests;
+#[cfg(test)]
 mod tests;
 
 use rayon::prelude::*;
