@@ -55,7 +55,7 @@ impl TvL1FlowParams {
     pub fn fast() -> Self {
         Self {
             warps: 3,
-            max_iterations: 20,
+            max_iterations: 30,
             ..Self::default()
         }
     }

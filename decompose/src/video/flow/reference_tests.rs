@@ -29,13 +29,13 @@ struct Scores {
     mean_gap: f64,
 }
 
-fn score_pair(pair: &Value, stride: usize, offset: usize) -> Scores {
+fn score_pair(pair: &Value, stride: usize, offset: usize, params: &TvL1FlowParams) -> Scores {
     let name = pair["name"].as_str().unwrap();
     let load = |which: &str| {
         io::load_rgb(format!("{DIR}/{name}_{which}.png"), LoadOptions::default()).unwrap()
     };
     let (prev, next) = (load("prev"), load("next"));
-    let ours = flow(&prev, &next, &TvL1FlowParams::default()).unwrap();
+    let ours = flow(&prev, &next, params).unwrap();
     let (gw, gh) = (
         pair["grid"]["width"].as_u64().unwrap() as usize,
         pair["grid"]["height"].as_u64().unwrap() as usize,
@@ -91,7 +91,7 @@ fn close_to_opencv_dual_tvl1_on_real_frames() {
     let pairs = json["pairs"].as_array().unwrap();
     assert_eq!(pairs.len(), 3);
     for pair in pairs {
-        let s = score_pair(pair, stride, offset);
+        let s = score_pair(pair, stride, offset, &TvL1FlowParams::default());
         let name = &pair["name"];
         assert!(s.ours < 0.4, "{name}: mean EPE to DualTVL1 {}", s.ours);
         assert!(

@@ -58,6 +58,9 @@ pub(super) fn solve_level(
     // Per pixel after warping: [∂xI₁(x+u₀), ∂yI₁(x+u₀), |∇I₁|², ρ's constant part].
     let mut data = vec![[0.0f32; 4]; n];
     let mut dual = vec![[0.0f32; 4]; n];
+    let chunks = h.div_ceil(rows);
+    let mut boundary = Vec::with_capacity(chunks.saturating_sub(1) * w);
+    let k = Consts { lt, theta };
     let mut total = 0;
     let mut change = f32::INFINITY;
     for _ in 0..params.warps {
@@ -76,77 +79,70 @@ pub(super) fn solve_level(
         let mut iterations = 0;
         loop {
             iterations += 1;
-            // Thresholding (Prop. 2) and u = v + θ div p (Prop. 1), per chunk of rows.
+            // One fused sweep per chunk of rows: the primal step of row r + 1 (which still
+            // needs the old duals of rows r and r + 1), then the dual step of row r (which
+            // needs the new flow of rows r and r + 1). A chunk's first row reads the old duals
+            // of the row above from `boundary`; its last row's dual step waits for the next
+            // chunk's flow (second sweep). The arithmetic is that of the two-pass scheme.
+            boundary.clear();
+            for c in 1..chunks {
+                let y = c * rows - 1;
+                boundary.extend_from_slice(&dual[y * w..(y + 1) * w]);
+            }
             let sums: Vec<f64> = u
                 .par_chunks_mut(chunk)
+                .zip(dual.par_chunks_mut(chunk))
                 .enumerate()
-                .map(|(c, uc)| {
-                    let mut sum = 0.0f64;
-                    for (r, urow) in uc.chunks_mut(w).enumerate() {
-                        let y = c * rows + r;
-                        let row = y * w;
-                        let drow = &data[row..row + w];
-                        let prow = &dual[row..row + w];
-                        let pup = if y > 0 {
-                            Some(&dual[row - w..row])
-                        } else {
-                            None
-                        };
-                        let mut row_sum = 0.0f32;
-                        for x in 0..w {
-                            let [ix, iy, g2, rho_c] = drow[x];
-                            let uu = urow[x];
-                            let rho = rho_c + ix * uu[0] + iy * uu[1];
-                            let (d1, d2) = if rho < -lt * g2 {
-                                (lt * ix, lt * iy)
-                            } else if rho > lt * g2 {
-                                (-lt * ix, -lt * iy)
-                            } else if g2 < GRAD_IS_ZERO {
-                                (0.0, 0.0)
-                            } else {
-                                (-rho * ix / g2, -rho * iy / g2)
-                            };
-                            let div = divergence(prow, pup, x, y + 1 < h);
-                            let new = [uu[0] + d1 + theta * div[0], uu[1] + d2 + theta * div[1]];
-                            let (e1, e2) = (new[0] - uu[0], new[1] - uu[1]);
-                            row_sum += e1 * e1 + e2 * e2;
-                            urow[x] = new;
+                .map(|(c, (uc, pc))| {
+                    let y0 = c * rows;
+                    let nr = uc.len() / w;
+                    let row = |r: usize| r * w..(r + 1) * w;
+                    let above = (c > 0).then(|| &boundary[(c - 1) * w..c * w]);
+                    let data_row = |r: usize| &data[(y0 + r) * w..(y0 + r + 1) * w];
+                    let mut sum = primal_row(
+                        &mut uc[row(0)],
+                        data_row(0),
+                        &pc[row(0)],
+                        above,
+                        y0 + 1 < h,
+                        &k,
+                    ) as f64;
+                    for r in 0..nr {
+                        if r + 1 < nr {
+                            let last = y0 + r + 2 >= h;
+                            let (up, here) = pc.split_at(row(r + 1).start);
+                            sum += primal_row(
+                                &mut uc[row(r + 1)],
+                                data_row(r + 1),
+                                &here[..w],
+                                Some(&up[row(r)]),
+                                !last,
+                                &k,
+                            ) as f64;
+                            let (top, bottom) = uc.split_at(row(r + 1).start);
+                            dual_row(&mut pc[row(r)], &top[row(r)], &bottom[..w], taut);
+                        } else if y0 + r + 1 == h {
+                            // The image's last row: no row below (zero forward difference).
+                            let urow = &uc[row(r)];
+                            dual_row(&mut pc[row(r)], urow, urow, taut);
                         }
-                        sum += row_sum as f64;
                     }
                     sum
                 })
                 .collect();
             change = (sums.iter().sum::<f64>() / n as f64) as f32;
-
-            // Dual step: p = (p + (τ/θ)∇u) / (1 + (τ/θ)|∇u|), for both flow components.
             let uref: &[[f32; 2]] = u;
             dual.par_chunks_mut(chunk).enumerate().for_each(|(c, pc)| {
-                for (r, prow) in pc.chunks_mut(w).enumerate() {
-                    let y = c * rows + r;
-                    let urow = &uref[y * w..(y + 1) * w];
-                    // Past the last row the forward difference is zero: use the row itself.
-                    let below = if y + 1 < h {
-                        &uref[(y + 1) * w..(y + 2) * w]
-                    } else {
-                        urow
-                    };
-                    for x in 0..w {
-                        let here = urow[x];
-                        let right = if x + 1 < w { urow[x + 1] } else { here };
-                        let down = below[x];
-                        let (u1x, u1y) = (right[0] - here[0], down[0] - here[0]);
-                        let (u2x, u2y) = (right[1] - here[1], down[1] - here[1]);
-                        let r1 = 1.0 / (1.0 + taut * (u1x * u1x + u1y * u1y).sqrt());
-                        let r2 = 1.0 / (1.0 + taut * (u2x * u2x + u2y * u2y).sqrt());
-                        let p = &mut prow[x];
-                        *p = [
-                            (p[0] + taut * u1x) * r1,
-                            (p[1] + taut * u1y) * r1,
-                            (p[2] + taut * u2x) * r2,
-                            (p[3] + taut * u2y) * r2,
-                        ];
-                    }
+                let y = c * rows + pc.len() / w - 1;
+                if y + 1 < h {
+                    let start = pc.len() - w;
+                    let prow = &mut pc[start..];
+                    dual_row(
+                        prow,
+                        &uref[y * w..(y + 1) * w],
+                        &uref[(y + 1) * w..(y + 2) * w],
+                        taut,
+                    );
                 }
             });
             if change <= stop || iterations >= params.max_iterations {
@@ -156,6 +152,72 @@ pub(super) fn solve_level(
         total += iterations;
     }
     (total, change)
+}
+
+struct Consts {
+    /// λθ.
+    lt: f32,
+    /// θ.
+    theta: f32,
+}
+
+/// The primal step on one row: thresholding (Prop. 2) then `u = v + θ div p` (Prop. 1).
+/// `prow` holds the duals of this row, `above` those of the row above (`None` on the first
+/// row); returns the row's `Σ|uⁿ⁺¹ − uⁿ|²`.
+#[inline]
+fn primal_row(
+    urow: &mut [[f32; 2]],
+    drow: &[[f32; 4]],
+    prow: &[[f32; 4]],
+    above: Option<&[[f32; 4]]>,
+    not_last_row: bool,
+    k: &Consts,
+) -> f32 {
+    let lt = k.lt;
+    let mut row_sum = 0.0f32;
+    for x in 0..urow.len() {
+        let [ix, iy, g2, rho_c] = drow[x];
+        let uu = urow[x];
+        let rho = rho_c + ix * uu[0] + iy * uu[1];
+        let (d1, d2) = if rho < -lt * g2 {
+            (lt * ix, lt * iy)
+        } else if rho > lt * g2 {
+            (-lt * ix, -lt * iy)
+        } else if g2 < GRAD_IS_ZERO {
+            (0.0, 0.0)
+        } else {
+            (-rho * ix / g2, -rho * iy / g2)
+        };
+        let div = divergence(prow, above, x, not_last_row);
+        let new = [uu[0] + d1 + k.theta * div[0], uu[1] + d2 + k.theta * div[1]];
+        let (e1, e2) = (new[0] - uu[0], new[1] - uu[1]);
+        row_sum += e1 * e1 + e2 * e2;
+        urow[x] = new;
+    }
+    row_sum
+}
+
+/// The dual step on one row: `p = (p + (τ/θ)∇u) / (1 + (τ/θ)|∇u|)` for both components, with
+/// `below` the flow of the next row (this row itself on the last row: zero difference).
+#[inline]
+fn dual_row(prow: &mut [[f32; 4]], urow: &[[f32; 2]], below: &[[f32; 2]], taut: f32) {
+    let w = urow.len();
+    for x in 0..w {
+        let here = urow[x];
+        let right = if x + 1 < w { urow[x + 1] } else { here };
+        let down = below[x];
+        let (u1x, u1y) = (right[0] - here[0], down[0] - here[0]);
+        let (u2x, u2y) = (right[1] - here[1], down[1] - here[1]);
+        let r1 = 1.0 / (1.0 + taut * (u1x * u1x + u1y * u1y).sqrt());
+        let r2 = 1.0 / (1.0 + taut * (u2x * u2x + u2y * u2y).sqrt());
+        let p = &mut prow[x];
+        *p = [
+            (p[0] + taut * u1x) * r1,
+            (p[1] + taut * u1y) * r1,
+            (p[2] + taut * u2x) * r2,
+            (p[3] + taut * u2y) * r2,
+        ];
+    }
 }
 
 /// `div p` of both dual fields at column `x` of a row (`prow`, with `pup` the row above, `None`
