@@ -73,6 +73,8 @@ mod plane;
 mod tvl1;
 
 #[cfg(test)]
+mod naive_tests;
+#[cfg(test)]
 mod reference_tests;
 #[cfg(test)]
 mod tests;
