@@ -57,7 +57,11 @@
 //! load of ~7, so CPU time is the stable figure): defaults 0.40 CPU-s (0.6 s wall under that
 //! load), EPE 0.008 px on a (3.3, −1.7) shift; a real 768×576 pair of `vtest.avi` 0.44 CPU-s.
 //! OpenCV 5.1's DualTVL1 with the same parameters takes 2.6 CPU-s (3.7 s wall) on the same
-//! pair, EPE 0.065 px; its DIS (preset MEDIUM) 0.08 CPU-s, EPE 0.033 px.
+//! pair, EPE 0.065 px; its DIS (preset MEDIUM) 0.08 CPU-s, EPE 0.033 px. One thread needs the
+//! same 0.37 CPU-s, so a pair takes about 0.4 s on one idle core; the 2-thread speed-up could
+//! not be measured on the busy machine (wall time was the same with 1 and 2 threads there).
+//! The loops are scalar over per-pixel arrays (`[f32; 4]` duals); a structure-of-arrays,
+//! branch-free form that the compiler can vectorise is the next speed step.
 //!
 //! The finest level dominates the cost, so the parameters that trade accuracy for time are
 //! `warps` and `max_iterations` (they bound the finest level's iterations; the defaults allow
