@@ -53,24 +53,25 @@
 //! DualTVL1 with the same parameters is 0.21–0.29 px, below that of OpenCV's own DIS flow
 //! (0.30–0.89 px) and of the zero flow (0.78–2.29 px).
 //!
-//! One 800×600 pair (`examples/flow_speed.rs`, 2 threads, on the shared 2-core machine under a
-//! load of ~7, so CPU time is the stable figure): defaults 0.40 CPU-s (0.6 s wall under that
-//! load), EPE 0.008 px on a (3.3, −1.7) shift; a real 768×576 pair of `vtest.avi` 0.44 CPU-s.
-//! OpenCV 5.1's DualTVL1 with the same parameters takes 2.6 CPU-s (3.7 s wall) on the same
-//! pair, EPE 0.065 px; its DIS (preset MEDIUM) 0.08 CPU-s, EPE 0.033 px. One thread needs the
-//! same 0.37 CPU-s, so a pair takes about 0.4 s on one idle core; the 2-thread speed-up could
-//! not be measured on the busy machine (wall time was the same with 1 and 2 threads there).
-//! The loops are scalar over per-pixel arrays (`[f32; 4]` duals); a structure-of-arrays,
-//! branch-free form that the compiler can vectorise is the next speed step.
+//! One 800×600 pair (`examples/flow_speed.rs`; the 2-core machine is shared, these runs were
+//! at a load average of ~2.5): defaults 0.27 s wall with 2 threads, 0.42 s with one, EPE
+//! 0.008 px on a (3.3, −1.7) shift; a real 768×576 pair of `vtest.avi` 0.26 s (0.44 s on one
+//! thread). On the same 800×600 pair OpenCV 5.1 (`scripts/reference/flow_opencv.py --speed`,
+//! 2 threads) takes 1.25 s with DualTVL1 and the same parameters (EPE 0.065 px), 2.4 s with
+//! its default DualTVL1, and 0.032 s with DIS, preset MEDIUM (EPE 0.033 px): we are ~4.6×
+//! faster than OpenCV's TV-L1 and ~8× slower than DIS. CPU-time figures from 2 threads
+//! include rayon's idle spinning; the one-thread time is the cleaner measure of work. A
+//! row-planar (structure-of-arrays) rewrite of the inner loops was tried and was 1.5× slower
+//! on one thread (the compiler did not vectorise it); explicit SIMD is untried.
 //!
 //! The finest level dominates the cost, so the parameters that trade accuracy for time are
 //! `warps` and `max_iterations` (they bound the finest level's iterations; the defaults allow
 //! 5 × 300 but usually stop after 5–15 per warp on ε), then `epsilon`, then `scales` (only
-//! for large motion). [`TvL1FlowParams::fast`] (3 warps × at most 30 iterations) costs 0.33–0.36
-//! CPU-s on the pairs above with a bounded worst case, 0.17–0.33 px from OpenCV's DualTVL1 on
-//! the crops; 1–2 warps of 10–20 iterations halve the defaults' time (0.20–0.23 CPU-s) but
-//! move 0.05–0.06 px away from the defaults' flow on `vtest.avi` and up to 0.5 px from
-//! OpenCV's on the crops.
+//! for large motion). [`TvL1FlowParams::fast`] (3 warps × at most 30 iterations) takes
+//! 0.20–0.22 s on the pairs above (2 threads) with a bounded worst case, and stays 0.17–0.33
+//! px from OpenCV's DualTVL1 on the crops; 1–2 warps of 10–20 iterations halve the defaults'
+//! time (0.12–0.13 s) but move 0.05–0.06 px away from the defaults' flow on `vtest.avi` and
+//! up to 0.5 px from OpenCV's on the crops.
 
 mod params;
 mod plane;
