@@ -13,7 +13,9 @@
 //! - [`segment`]: step 2, the reflectance clusters of the first frame: Felzenszwalb–Huttenlocher
 //!   graph segmentation (σ = 0.8, K = 50, min = 256, §3.4) and the merge of adjacent segments
 //!   by mean colour;
-//! - `flow`: step 3, optical flow between consecutive frames.
+//! - [`flow`]: step 3, coarse-to-fine TV-L1 optical flow between consecutive frames (Zach,
+//!   Pock & Bischof 2007, with the IPOL 2013 defaults).
 
+pub mod flow;
 pub mod frames;
 pub mod segment;
