@@ -18,9 +18,6 @@
 
 use std::time::Instant;
 
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-
 use decompose::Image;
 use decompose::color::srgb_to_linear;
 use decompose::io::{self, Depth, Encoding};
@@ -40,28 +37,11 @@ fn cpu_seconds() -> f64 {
         .unwrap_or(f64::NAN)
 }
 
+/// A smooth random texture (24 waves of 6–80 px), quantised to 8-bit display values so that
+/// the PNG written for OpenCV holds exactly these frames.
 fn texture(seed: u64) -> impl Fn(f64, f64) -> f32 {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let waves: Vec<[f64; 3]> = (0..24)
-        .map(|_| {
-            let angle = rng.random_range(0.0..std::f64::consts::PI);
-            let k = std::f64::consts::TAU / rng.random_range(6.0..80.0);
-            [
-                k * angle.cos(),
-                k * angle.sin(),
-                rng.random_range(0.0..std::f64::consts::TAU),
-            ]
-        })
-        .collect();
-    move |x, y| {
-        let s: f64 = waves
-            .iter()
-            .map(|[kx, ky, ph]| (kx * x + ky * y + ph).cos())
-            .sum();
-        let g = 1.0 / (1.0 + (-0.5 * s).exp());
-        // 8-bit display value, so the PNG written for OpenCV holds exactly these frames.
-        srgb_to_linear(((g * 255.0).round() / 255.0) as f32)
-    }
+    let t = decompose::synthetic::wave_texture(seed, 24, 6.0..80.0, 0.5);
+    move |x, y| srgb_to_linear(((t(x, y) * 255.0).round() / 255.0) as f32)
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

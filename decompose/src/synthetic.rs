@@ -13,6 +13,38 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::image::{Image, Mask};
 
+/// A smooth random texture with values in (0, 1), as a function of real coordinates: the
+/// logistic of `gain` times a sum of `waves` unit cosines. Each has a seeded direction, phase
+/// and wavelength, uniform in `wavelengths` pixels. It is analytic, so a moved copy is exact
+/// rather than interpolated: the optical-flow tests and the flow benchmark use it for frames
+/// with a known flow.
+pub fn wave_texture(
+    seed: u64,
+    waves: usize,
+    wavelengths: std::ops::Range<f64>,
+    gain: f64,
+) -> impl Fn(f64, f64) -> f64 {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let waves: Vec<[f64; 3]> = (0..waves)
+        .map(|_| {
+            let angle = rng.random_range(0.0..std::f64::consts::PI);
+            let k = std::f64::consts::TAU / rng.random_range(wavelengths.clone());
+            [
+                k * angle.cos(),
+                k * angle.sin(),
+                rng.random_range(0.0..std::f64::consts::TAU),
+            ]
+        })
+        .collect();
+    move |x, y| {
+        let s: f64 = waves
+            .iter()
+            .map(|[kx, ky, phase]| (kx * x + ky * y + phase).cos())
+            .sum();
+        1.0 / (1.0 + (-gain * s).exp())
+    }
+}
+
 /// An input with its true decomposition: `input = reflectance × shading`.
 #[derive(Clone, Debug)]
 pub struct GroundTruth {

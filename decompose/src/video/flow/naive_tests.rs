@@ -1,34 +1,10 @@
 //! The fused, chunked TV-L1 sweep (module `tvl1`) against a plain transcription of the
 //! iteration: the fast path must compute the same thing as the naive one.
 
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-
 use super::TvL1FlowParams;
 use super::plane::Plane;
 
-/// A smooth random texture in (0, 1) (as in `tests.rs`).
-fn texture(seed: u64) -> impl Fn(f64, f64) -> f64 {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let waves: Vec<[f64; 3]> = (0..16)
-        .map(|_| {
-            let angle = rng.random_range(0.0..std::f64::consts::PI);
-            let k = std::f64::consts::TAU / rng.random_range(6.0..24.0);
-            [
-                k * angle.cos(),
-                k * angle.sin(),
-                rng.random_range(0.0..std::f64::consts::TAU),
-            ]
-        })
-        .collect();
-    move |x, y| {
-        let s: f64 = waves
-            .iter()
-            .map(|[kx, ky, ph]| (kx * x + ky * y + ph).cos())
-            .sum();
-        1.0 / (1.0 + (-0.6 * s).exp())
-    }
-}
+use super::tests::texture;
 
 /// The fused, chunked sweep against a plain transcription of the IPOL iteration (separate
 /// arrays, two full passes, no chunks) on a plane of three chunks, for a fixed number of

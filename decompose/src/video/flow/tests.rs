@@ -5,36 +5,13 @@
 //! interpolated: for a motion `M` taking a point of `prev` to its place in `next`,
 //! `prev(p) = T(p)`, `next(q) = T(M⁻¹(q))` and the true flow is `M(p) − p`.
 
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-
 use super::*;
 use crate::color::srgb_to_linear;
 
-/// A smooth random texture in (0, 1), as a function of real coordinates.
-fn texture(seed: u64) -> impl Fn(f64, f64) -> f64 {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let waves: Vec<[f64; 4]> = (0..16)
-        .map(|_| {
-            let angle = rng.random_range(0.0..std::f64::consts::PI);
-            let wavelength = rng.random_range(6.0..24.0);
-            let k = std::f64::consts::TAU / wavelength;
-            [
-                k * angle.cos(),
-                k * angle.sin(),
-                rng.random_range(0.0..std::f64::consts::TAU),
-                1.0,
-            ]
-        })
-        .collect();
-    move |x, y| {
-        let s: f64 = waves
-            .iter()
-            .map(|[kx, ky, phase, a]| a * (kx * x + ky * y + phase).cos())
-            .sum();
-        // Squash to (0, 1); 16 unit waves have a standard deviation of about 2.8.
-        1.0 / (1.0 + (-0.6 * s).exp())
-    }
+/// A smooth random texture in (0, 1): 16 waves of 6–24 px. 16 unit waves have a standard
+/// deviation of about 2.8, so the gain 0.6 squashes them to a good spread of values.
+pub(super) fn texture(seed: u64) -> impl Fn(f64, f64) -> f64 {
+    crate::synthetic::wave_texture(seed, 16, 6.0..24.0, 0.6)
 }
 
 /// A linear grey image whose flow grey (sRGB-encoded luminance) is `f` at the pixel centres.
