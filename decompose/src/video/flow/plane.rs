@@ -196,16 +196,9 @@ impl Plane {
     pub fn zoom_out(&self, w: usize, h: usize) -> Plane {
         let eta = (w as f32 / self.w as f32).min(h as f32 / self.h as f32);
         let sigma = 0.6 * (1.0 / (eta * eta) - 1.0).max(0.0).sqrt();
-        let smooth = self.gaussian(sigma);
-        let (sx, sy) = (self.w as f32 / w as f32, self.h as f32 / h as f32);
-        let mut out = Plane::new(w, h);
-        out.data.par_chunks_mut(w).enumerate().for_each(|(y, o)| {
-            let fy = (y as f32 + 0.5) * sy - 0.5;
-            for (x, v) in o.iter_mut().enumerate() {
-                *v = smooth.bicubic((x as f32 + 0.5) * sx - 0.5, fy);
-            }
-        });
-        out
+        // The same centre-aligned bicubic resampling as `zoom_in`, of the smoothed plane
+        // (× 1 is exact).
+        self.gaussian(sigma).zoom_in(w, h, 1.0)
     }
 
     /// Bicubic resampling to `(w, h)` with centres aligned and every value multiplied by
