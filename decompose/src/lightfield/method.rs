@@ -251,9 +251,10 @@ pub fn decompose(
         stage: "4D filtering of the light field",
         fraction: 0.0,
     });
-    let filtered = match (&params.input_filter, params.filter_4d) {
-        (Some(f), true) => tv_l1(lf, f)?.0,
-        _ => lf.clone(),
+    // Borrowed when step 1 is off: no copy of the light field.
+    let filtered: std::borrow::Cow<LightField> = match (&params.input_filter, params.filter_4d) {
+        (Some(f), true) => std::borrow::Cow::Owned(tv_l1(lf, f)?.0),
+        _ => std::borrow::Cow::Borrowed(lf),
     };
     lap(&mut info, "filter light field");
     let s0 = norms(&filtered);
