@@ -195,6 +195,32 @@ fn more_coherent_across_views_than_per_view_methods_on_the_rendered_fixture() {
         );
         assert!(ours.0 <= b.0, "LMSE: ours {} vs {baseline} {}", ours.0, b.0);
     }
+    // Without the fixture's disparity file, as for a folder that has none: the method gets the
+    // disparity estimated from the EPIs (scoring still uses the truth), and must still win.
+    let estimated = dir.path().join("estimated.json");
+    let o = decompose(&[
+        os("eval-lightfield"),
+        os("--truth"),
+        tiny().as_os_str(),
+        os("--methods"),
+        os("ours"),
+        os("--estimate-disparity"),
+        os("--json"),
+        estimated.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let e: serde_json::Value = serde_json::from_slice(&std::fs::read(&estimated).unwrap()).unwrap();
+    let est = |k: &str| e["tiny"]["ours"]["scores"][k].as_f64().unwrap();
+    let retinex = (
+        get("per-view retinex", "lmse"),
+        get("per-view retinex", "incoherence"),
+    );
+    assert!(
+        est("incoherence") < 0.5 * retinex.1 && est("lmse") <= retinex.0,
+        "estimated disparity: ours {} / {} vs per-view Retinex {retinex:?}",
+        est("lmse"),
+        est("incoherence")
+    );
 }
 
 #[test]
