@@ -150,7 +150,7 @@ def plan(seed, motion, frames, width, height, scene_info, tmp):
     mover = None
     if motion == "camera":
         # A sideways dolly with a little push in and rise, the camera turning a little less than
-        # it moves (parallax and rotation, about 2-3 px per frame at 320 px wide).
+        # it moves (parallax and rotation, up to about 2 px per frame at 320x240, 30 frames).
         side = rng.choice([-1.0, 1.0])
         travel = np.array([side * rng.uniform(0.5, 0.8), rng.uniform(-0.15, 0.15), -rng.uniform(0.1, 0.4)])
         turn = np.array([side * rng.uniform(0.2, 0.5), 0.0, 0.0])

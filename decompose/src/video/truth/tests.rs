@@ -305,3 +305,65 @@ fn missing_and_mismatched_files_are_named() {
         Err(Error::NoFrames { .. })
     ));
 }
+
+/// The rendered data set (`python3 scripts/render_video.py`, git-ignored), when present: every
+/// sequence loads, R × S = input on every frame, and TV-L1's endpoint error against the true
+/// flow per sequence (the figures of `docs/video-data.md`). Run with
+/// `cargo test -p decompose --lib video::truth::tests::rendered -- --ignored --nocapture`.
+#[test]
+#[ignore = "needs .cache/rendered-video (scripts/render_video.py); minutes"]
+fn rendered_sequences() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../.cache/rendered-video");
+    let mut seqs: Vec<PathBuf> = ["tune", "test"]
+        .iter()
+        .filter_map(|s| std::fs::read_dir(root.join(s)).ok())
+        .flatten()
+        .map(|e| e.unwrap().path())
+        .collect();
+    seqs.sort();
+    assert!(!seqs.is_empty(), "nothing under {}", root.display());
+    for dir in seqs {
+        let t = load_truth(&dir).unwrap();
+        let (w, h) = t.size();
+        let mut worst = 0.0f32;
+        let (mut epe, mut zero, mut known) = (0.0, 0.0, 0.0);
+        let mut prev = t.input(0).unwrap();
+        for i in 0..t.len() {
+            let (input, r, s) = (
+                t.input(i).unwrap(),
+                t.reflectance(i).unwrap(),
+                t.shading(i).unwrap(),
+            );
+            for p in 0..input.len() {
+                for c in 0..3 {
+                    worst = worst.max((r.px(p)[c] * s.px(p)[0] - input.px(p)[c]).abs());
+                }
+            }
+            if i > 0 {
+                let truth = t.flow(i - 1).unwrap();
+                let est = tvl1_flow(&prev, &input, &TvL1FlowParams::default()).unwrap();
+                let (e, n) = known_endpoint_error(&est, &truth).unwrap();
+                epe += e;
+                zero += known_endpoint_error(&Flow::zeros(w, h), &truth).unwrap().0;
+                known += n as f64 / (w * h) as f64;
+            }
+            prev = input;
+        }
+        let pairs = (t.len() - 1) as f64;
+        let info = t.info().unwrap();
+        eprintln!(
+            "{}: {} frames {}x{}, moving {}; |RS - I| <= {:.2} 16-bit steps; TV-L1 EPE {:.3} px, \
+             zero flow {:.3} px, known {:.1}%",
+            dir.display(),
+            t.len(),
+            w,
+            h,
+            info.motion.as_deref().unwrap_or("?"),
+            worst * 65535.0,
+            epe / pairs,
+            zero / pairs,
+            100.0 * known / pairs
+        );
+        assert!(worst * 65535.0 <= 1.5);
+    }
+}
