@@ -14,8 +14,12 @@
 //!   graph segmentation (σ = 0.8, K = 50, min = 256, §3.4) and the merge of adjacent segments
 //!   by mean colour;
 //! - [`flow`]: step 3, coarse-to-fine TV-L1 optical flow between consecutive frames (Zach,
-//!   Pock & Bischof 2007, with the IPOL 2013 defaults).
+//!   Pock & Bischof 2007, with the IPOL 2013 defaults);
+//! - [`truth`]: the evaluation's ground truth, a sequence folder with `input/`,
+//!   `reflectance/`, `shading/` frames and the exact flow as Middlebury `.flo` files
+//!   (rendered by `scripts/render_video.py`, described in `docs/video-data.md`), read lazily.
 
 pub mod flow;
 pub mod frames;
 pub mod segment;
+pub mod truth;
