@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use crate::image::{Image, Mask};
 use crate::video::flow::Flow;
 
-use super::tables::{Candidate, ClusterTables, colour8};
+use super::tables::{Candidate, ClusterTables, Scratch, colour8};
 use super::{PropagateParams, check_labels};
 
 /// Result of [`propagate`]: frame t+1's labels and reflectance where assigned.
@@ -100,9 +100,9 @@ pub fn propagate(
     distinct.dedup();
     let per_colour: Vec<Vec<Candidate>> = distinct
         .par_iter()
-        .map(|&c| {
+        .map_init(Scratch::default, |scratch, &c| {
             let [_, r, g, b] = c.to_be_bytes();
-            tables.candidates([r, g, b], params.d)
+            tables.candidates_with([r, g, b], params.d, scratch)
         })
         .collect();
     let colour_index: Vec<u32> = packed
@@ -266,7 +266,7 @@ fn bilinear(flow: &Flow, x: f32, y: f32) -> (f32, f32) {
 /// than the truth or infinite). Felzenszwalb & Huttenlocher's two-pass distance transform over
 /// the requests' bounding box grown by `reach`: a pixel of `k` outside that box is more than
 /// `reach` away from every request.
-fn nearest_dist2(prev: &Labels, k: u32, req: &[(usize, u32)], reach: usize) -> Vec<f64> {
+pub(super) fn nearest_dist2(prev: &Labels, k: u32, req: &[(usize, u32)], reach: usize) -> Vec<f64> {
     let w = prev.width as usize;
     let h = prev.height as usize;
     let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);

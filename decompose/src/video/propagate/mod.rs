@@ -72,8 +72,9 @@
 //!
 //! # Cost
 //!
-//! Likelihoods are computed once per distinct colour of frame t+1 (an 8-bit colour grid of
-//! 8×8×8 cells indexes the table entries, so a ball of radius 5 visits at most 27 cells), and
+//! Likelihoods are computed once per distinct colour of frame t+1 (the table's bins are sorted
+//! by colour and indexed by (red, green), so the ball of radius 5 is read as at most 121 runs
+//! of blue values and only the bins inside it are visited), and
 //! distance transforms (Felzenszwalb & Huttenlocher's lower envelope of parabolas) are run per
 //! cluster only over the bounding box of the pixels that need them, i.e. those for which the
 //! cluster is a candidate but `p′` does not land on it. Work is split with rayon per row,

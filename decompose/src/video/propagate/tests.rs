@@ -368,7 +368,12 @@ fn update_adds_counts_exactly() {
     for k in 0..4u32 {
         let added = labels1.data.iter().filter(|&&l| l == k).count() as u64;
         assert_eq!(after.pixels(k), before.pixels(k) + added, "k = {k}");
-        let hist_total: u64 = after.reflectance_histogram(k).unwrap().values().sum();
+        let hist_total: u64 = after
+            .reflectance_histogram(k)
+            .unwrap()
+            .iter()
+            .map(|e| e.1)
+            .sum();
         assert_eq!(hist_total, after.pixels(k));
         let colour_total: u64 = after.colour_histogram(k).iter().map(|e| e.1).sum();
         assert_eq!(colour_total, after.pixels(k));
@@ -519,5 +524,134 @@ fn bad_inputs_are_errors() {
             propagate(&tables, &labels, &input, &flow, &bad),
             Err(Error::InvalidParam { .. })
         ));
+    }
+}
+
+#[test]
+fn colour8_is_the_rounded_srgb_code() {
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    let mut off = 0;
+    for _ in 0..20_000 {
+        let v: f32 = rng.random_range(-0.1..1.1);
+        let exact = (crate::color::linear_to_srgb(v) * 255.0).round() as u8;
+        let got = colour8([v; 3])[0];
+        if got != exact {
+            // Only at a code boundary, within rounding.
+            let code = (crate::color::linear_to_srgb(v) * 255.0 - 0.5).round();
+            assert!(((crate::color::linear_to_srgb(v) * 255.0) - 0.5 - code).abs() < 1e-4);
+            off += 1;
+        }
+    }
+    assert!(off < 5, "{off}");
+    for c in 0..=255u8 {
+        let v = crate::color::srgb_to_linear(c as f32 / 255.0);
+        assert_eq!(colour8([v; 3]), [c; 3]);
+    }
+    assert_eq!(colour8([f32::NAN, f32::INFINITY, 2.0]), [0, 0, 255]);
+}
+
+#[test]
+fn distance_transform_matches_brute_force() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    for _ in 0..30 {
+        let (w, h) = (rng.random_range(1..30u32), rng.random_range(1..30u32));
+        let n = (w * h) as usize;
+        let density = rng.random_range(0.0..0.2);
+        let data = (0..n)
+            .map(|_| {
+                if rng.random_bool(density) {
+                    0
+                } else if rng.random_bool(0.1) {
+                    Labels::NONE
+                } else {
+                    1
+                }
+            })
+            .collect();
+        let labels = Labels {
+            width: w,
+            height: h,
+            data,
+            count: 2,
+        };
+        let reach = rng.random_range(1..20usize);
+        let req: Vec<(usize, u32)> = (0..rng.random_range(1..10))
+            .map(|j| (j, rng.random_range(0..n as u32)))
+            .collect();
+        let got = map::nearest_dist2(&labels, 0, &req, reach);
+        for (&(_, s), &d2) in req.iter().zip(&got) {
+            let (sx, sy) = ((s % w) as i64, (s / w) as i64);
+            let best = (0..n)
+                .filter(|&q| labels.data[q] == 0)
+                .map(|q| {
+                    let (qx, qy) = ((q as u32 % w) as i64, (q as u32 / w) as i64);
+                    ((qx - sx).pow(2) + (qy - sy).pow(2)) as f64
+                })
+                .fold(f64::INFINITY, f64::min);
+            if best <= (reach * reach) as f64 {
+                assert_eq!(d2, best, "{w}x{h} reach {reach} at ({sx}, {sy})");
+            } else {
+                assert!(d2 > (reach * reach) as f64, "{d2} vs {best}");
+            }
+        }
+    }
+}
+
+#[test]
+fn likelihoods_match_a_brute_force_parzen_sum() {
+    let mut rng = ChaCha8Rng::seed_from_u64(36);
+    // Colours in a small cube so that balls hold many bins, several clusters, two updates.
+    let (w, h) = (40u32, 30u32);
+    let mut tables = ClusterTables::new(0);
+    let mut all: Vec<([u8; 3], u32)> = Vec::new();
+    for _ in 0..2 {
+        let values: Vec<f32> = (0..3 * w * h)
+            .map(|_| crate::color::srgb_to_linear(rng.random_range(90.0..115.0) / 255.0))
+            .collect();
+        let input = Image::from_vec(w, h, 3, values).unwrap();
+        let data: Vec<u32> = (0..w * h)
+            .map(|_| {
+                if rng.random_bool(0.1) {
+                    Labels::NONE
+                } else {
+                    rng.random_range(0..4)
+                }
+            })
+            .collect();
+        for (i, &l) in data.iter().enumerate() {
+            if l != Labels::NONE {
+                all.push((colour8(input.rgb(i)), l));
+            }
+        }
+        let labels = Labels {
+            width: w,
+            height: h,
+            data,
+            count: 4,
+        };
+        tables.update(&input, &input, &labels).unwrap();
+    }
+    for _ in 0..200 {
+        let c = [0; 3].map(|_| rng.random_range(85..120u8));
+        let d = rng.random_range(0.0..9.0f64);
+        let mut expected = Vec::new();
+        for k in 0..4u32 {
+            let size = all.iter().filter(|e| e.1 == k).count();
+            let inside = all
+                .iter()
+                .filter(|e| {
+                    e.1 == k
+                        && (0..3)
+                            .map(|j| (e.0[j] as f64 - c[j] as f64).powi(2))
+                            .sum::<f64>()
+                            <= d * d
+                })
+                .count();
+            assert_eq!(tables.pixels(k), size as u64);
+            if inside > 0 {
+                expected.push((k, inside as f64 / size as f64));
+            }
+        }
+        assert_eq!(tables.likelihoods(c, d), expected, "colour {c:?}, d {d}");
     }
 }
