@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use crate::image::{Image, Mask};
 use crate::video::flow::Flow;
 
-use super::tables::{Candidate, ClusterTables, Scratch, colour8};
+use super::tables::{Candidate, ClusterTables, colour8};
 use super::{PropagateParams, check_labels};
 
 /// Result of [`propagate`]: frame t+1's labels and reflectance where assigned.
@@ -98,11 +98,29 @@ pub fn propagate(
     let mut distinct = packed.clone();
     distinct.par_sort_unstable();
     distinct.dedup();
-    let per_colour: Vec<Vec<Candidate>> = distinct
+    // Runs of distinct colours that share (red, green), each handled by one task in order.
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (j, &c) in distinct.iter().enumerate() {
+        match runs.last_mut() {
+            Some(run) if distinct[run.0] >> 8 == c >> 8 => run.1 = j + 1,
+            _ => runs.push((j, j + 1)),
+        }
+    }
+    let per_colour: Vec<Vec<Candidate>> = runs
         .par_iter()
-        .map_init(Scratch::default, |scratch, &c| {
-            let [_, r, g, b] = c.to_be_bytes();
-            tables.candidates_with([r, g, b], params.d, scratch)
+        .flat_map_iter(|&(a, b)| {
+            let [_, r, g, _] = distinct[a].to_be_bytes();
+            let blues: Vec<u8> = distinct[a..b].iter().map(|&c| c as u8).collect();
+            let counts = tables.counts_along_blue(r, g, &blues, params.d);
+            counts.into_iter().zip(blues).map(move |(cs, b)| {
+                cs.into_iter()
+                    .map(|(k, count)| Candidate {
+                        cluster: k,
+                        likelihood: count as f64 / tables.pixels(k) as f64,
+                        reflectance: tables.colour_reflectance(k, [r, g, b]),
+                    })
+                    .collect::<Vec<_>>()
+            })
         })
         .collect();
     let colour_index: Vec<u32> = packed
@@ -161,12 +179,12 @@ pub fn propagate(
 
     // Posterior and the confidence test (§3.5.2), per pixel.
     let r2 = radius * radius;
-    let decided: Vec<(u32, [f32; 3], f32)> = (0..n)
+    let decided: Vec<(u32, Option<[f32; 3]>, f32)> = (0..n)
         .into_par_iter()
         .map(|i| {
             let slots = &dist2[offsets[i]..offsets[i + 1]];
             if slots.is_empty() {
-                return (Labels::NONE, [0.0; 3], 0.0);
+                return (Labels::NONE, None, 0.0);
             }
             let cands = &per_colour[colour_index[i] as usize];
             let (mut sum, mut best, mut second, mut arg) = (0.0f64, 0.0f64, 0.0f64, None);
@@ -187,21 +205,51 @@ pub fn propagate(
                 }
             }
             let Some(cand) = arg else {
-                return (Labels::NONE, [0.0; 3], 0.0);
+                return (Labels::NONE, None, 0.0);
             };
             let posterior = best / sum;
             if posterior >= params.epsilon && best >= params.beta * second {
                 (cand.cluster, cand.reflectance, posterior as f32)
             } else {
-                (Labels::NONE, [0.0; 3], posterior as f32)
+                (Labels::NONE, None, posterior as f32)
             }
+        })
+        .collect();
+
+    // Assigned pixels whose colour has no bin of its own in 𝓘_k take the mean reflectance of
+    // k's bins inside the Parzen ball, computed once per (colour, cluster).
+    let mut missing: Vec<(u32, u32)> = decided
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.0 != Labels::NONE && d.1.is_none())
+        .map(|(i, d)| (colour_index[i], d.0))
+        .collect();
+    missing.sort_unstable();
+    missing.dedup();
+    let fallback: Vec<[f32; 3]> = missing
+        .par_iter()
+        .map(|&(c, k)| {
+            let [_, r, g, b] = distinct[c as usize].to_be_bytes();
+            tables
+                .ball_mean([r, g, b], params.d, k)
+                .expect("an assigned cluster has a bin in the ball")
         })
         .collect();
 
     let mut labels = Vec::with_capacity(n);
     let mut refl = Vec::with_capacity(3 * n);
     let mut posterior = Vec::with_capacity(n);
-    for (l, r, p) in decided {
+    for (i, (l, r, p)) in decided.into_iter().enumerate() {
+        let r = match r {
+            Some(r) => r,
+            None if l != Labels::NONE => {
+                let j = missing
+                    .binary_search(&(colour_index[i], l))
+                    .expect("listed above");
+                fallback[j]
+            }
+            None => [0.0; 3],
+        };
         labels.push(l);
         refl.extend_from_slice(&r);
         posterior.push(p);

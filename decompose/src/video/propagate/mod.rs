@@ -72,14 +72,25 @@
 //!
 //! # Cost
 //!
-//! Likelihoods are computed once per distinct colour of frame t+1 (the table's bins are sorted
-//! by colour and indexed by (red, green), so the ball of radius 5 is read as at most 121 runs
-//! of blue values and only the bins inside it are visited), and
-//! distance transforms (Felzenszwalb & Huttenlocher's lower envelope of parabolas) are run per
-//! cluster only over the bounding box of the pixels that need them, i.e. those for which the
-//! cluster is a candidate but `p′` does not land on it. Work is split with rayon per row,
-//! per colour and per cluster; every value is computed by one task in a fixed order, so the
-//! result does not depend on the number of threads. Figures: `examples/propagate_speed.rs`.
+//! Likelihoods are computed once per distinct colour of frame t+1. The table's bins are sorted
+//! by colour and indexed by (red, green), so the ball of radius `d` is the union of at most
+//! `(2d + 1)²` intervals of blue values; the distinct colours that share (red, green) are
+//! visited in increasing blue, and each interval slides up its run of bins, so each bin enters
+//! and leaves the running integer counts once per such run. The fallback reflectance (no bin of
+//! the exact colour) is computed only for the (colour, cluster) pairs an assigned pixel needs,
+//! by a scan of the ball. Then distance transforms (Felzenszwalb & Huttenlocher's lower
+//! envelope of parabolas) are run per cluster only over the bounding box of the pixels that
+//! need them, i.e. those for which the cluster is a candidate but `p′` does not land on it.
+//! Work is split with rayon per pixel, per run of colours and per cluster; every value is
+//! computed by one task in a fixed order, so the result does not depend on the number of
+//! threads.
+//!
+//! Measured 2026-12-04 with `examples/propagate_speed.rs` (800×600, 50 clusters, ~93k distinct
+//! colours in frame t+1, true flow; the 2-core machine was shared, load average ~4):
+//! [`propagate`] 0.25 s wall with 2 threads, 0.29 s with one; [`ClusterTables::from_frame`]
+//! 0.07–0.10 s (once per video, then one [`ClusterTables::update`] per completed frame);
+//! [`should_stop`] 1–2 ms per pass. The scan of the ball per distinct colour, before the
+//! sliding, took 0.46 s on one thread; with 8×8×8 grid cells, 0.74 s.
 
 mod map;
 mod stop;

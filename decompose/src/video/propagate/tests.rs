@@ -655,3 +655,72 @@ fn likelihoods_match_a_brute_force_parzen_sum() {
         assert_eq!(tables.likelihoods(c, d), expected, "colour {c:?}, d {d}");
     }
 }
+
+#[test]
+fn sliding_counts_match_the_ball_scan() {
+    let mut rng = ChaCha8Rng::seed_from_u64(77);
+    let (w, h) = (50u32, 40u32);
+    let values: Vec<f32> = (0..3 * w * h)
+        .map(|_| crate::color::srgb_to_linear(rng.random_range(100.0..130.0) / 255.0))
+        .collect();
+    let input = Image::from_vec(w, h, 3, values).unwrap();
+    let labels = Labels {
+        width: w,
+        height: h,
+        data: (0..w * h).map(|_| rng.random_range(0..5)).collect(),
+        count: 5,
+    };
+    let tables = ClusterTables::from_frame(&input, &input, &labels).unwrap();
+    for _ in 0..60 {
+        let (r, g) = (rng.random_range(95..135u8), rng.random_range(95..135u8));
+        let mut blues: Vec<u8> = (0..rng.random_range(1..30))
+            .map(|_| rng.random_range(90..140u8))
+            .collect();
+        blues.sort_unstable();
+        blues.dedup();
+        let d = [0.0, 1.0, 2.5, 5.0, 7.3][rng.random_range(0..5)];
+        let slid = tables.counts_along_blue(r, g, &blues, d);
+        for (&b, counts) in blues.iter().zip(&slid) {
+            let reference: Vec<(u32, f64)> = tables.likelihoods([r, g, b], d);
+            let got: Vec<(u32, f64)> = counts
+                .iter()
+                .map(|&(k, c)| (k, c as f64 / tables.pixels(k) as f64))
+                .collect();
+            assert_eq!(got, reference, "({r}, {g}, {b}), d {d}");
+        }
+    }
+}
+
+#[test]
+fn a_colour_without_its_own_bin_takes_the_ball_mean() {
+    // Cluster 0 holds two colours (codes 100 and 104 in every channel) with reflectances
+    // 0.2 and 0.4, three pixels and one; a pixel of code 102 has no bin but both are within
+    // d = 5 (distance 2√3): it takes (3·0.2 + 0.4)/4 = 0.25.
+    let lin = |c: f32| crate::color::srgb_to_linear(c / 255.0);
+    let codes = [100.0, 100.0, 100.0, 104.0];
+    let input = Image::from_fn(4, 1, |x, _| [lin(codes[x as usize]); 3]);
+    let refl = Image::from_fn(4, 1, |x, _| [if x < 3 { 0.2 } else { 0.4 }; 3]);
+    let labels = Labels {
+        width: 4,
+        height: 1,
+        data: vec![0; 4],
+        count: 1,
+    };
+    let tables = ClusterTables::from_frame(&input, &refl, &labels).unwrap();
+    let next = Image::from_fn(4, 1, |x, _| [lin(if x == 1 { 102.0 } else { 100.0 }); 3]);
+    let p = propagate(
+        &tables,
+        &labels,
+        &next,
+        &Flow::zeros(4, 1),
+        &PropagateParams::default(),
+    )
+    .unwrap();
+    assert_eq!(p.labels.data, vec![0; 4]);
+    assert!(
+        close(p.reflectance.rgb(1), [0.25; 3]),
+        "{:?}",
+        p.reflectance.rgb(1)
+    );
+    assert!(close(p.reflectance.rgb(0), [0.2; 3]));
+}
