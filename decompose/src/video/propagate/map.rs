@@ -273,7 +273,7 @@ const NONE: u32 = u32::MAX;
 
 /// The row-major index of the pixel of frame t that the flow carries onto `(x, y)` of frame
 /// t+1: `p′ = p − f(p′)` by fixed-point iteration, rounded; [`NONE`] when outside the frame.
-fn source_pixel(flow: &Flow, x: usize, y: usize) -> u32 {
+pub(super) fn source_pixel(flow: &Flow, x: usize, y: usize) -> u32 {
     let (w, h) = (flow.width() as usize, flow.height() as usize);
     let (px, py) = (x as f32, y as f32);
     let i = y * w + x;

@@ -724,3 +724,33 @@ fn a_colour_without_its_own_bin_takes_the_ball_mean() {
     );
     assert!(close(p.reflectance.rgb(0), [0.2; 3]));
 }
+
+#[test]
+fn the_warped_position_inverts_a_smooth_flow() {
+    // f(x, y) = (2 + 0.05 x, −1 + 0.03 y): the pixel of frame t landing on (x, y) is
+    // ((x − 2) / 1.05, (y + 1) / 1.03).
+    let flow = Flow::from_fn(W, H, |x, y| [2.0 + 0.05 * x as f32, -1.0 + 0.03 * y as f32]);
+    let mut checked = 0;
+    for y in 0..H as usize {
+        for x in 0..W as usize {
+            let (sx, sy) = ((x as f64 - 2.0) / 1.05, (y as f64 + 1.0) / 1.03);
+            let near_half = |v: f64| (v - v.floor() - 0.5).abs() < 0.02;
+            if near_half(sx) || near_half(sy) {
+                continue;
+            }
+            let (rx, ry) = (sx.round(), sy.round());
+            let got = map::source_pixel(&flow, x, y);
+            if rx < 0.0 || ry < 0.0 || rx > (W - 1) as f64 || ry > (H - 1) as f64 {
+                assert_eq!(got, u32::MAX, "({x}, {y})");
+            } else {
+                assert_eq!(
+                    got as usize,
+                    ry as usize * W as usize + rx as usize,
+                    "({x}, {y})"
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 2500, "{checked}");
+}
