@@ -87,12 +87,13 @@
 //!
 //! Measured 2026-12-04 with `examples/propagate_speed.rs` (800×600, 50 clusters, ~93k distinct
 //! colours in frame t+1, true flow; the 2-core machine was shared, load average ~4):
-//! [`propagate`] 0.25 s wall with 2 threads, 0.29 s with one; [`ClusterTables::from_frame`]
+//! [`propagate`] 0.16–0.25 s wall with 2 threads (load average 2–4), 0.24–0.29 s with one; [`ClusterTables::from_frame`]
 //! 0.07–0.10 s (once per video, then one [`ClusterTables::update`] per completed frame);
 //! [`should_stop`] 1–2 ms per pass. The scan of the ball per distinct colour, before the
 //! sliding, took 0.46 s on one thread; with 8×8×8 grid cells, 0.74 s.
 
 mod map;
+mod parzen;
 mod stop;
 mod tables;
 #[cfg(test)]
