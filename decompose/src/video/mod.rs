@@ -15,11 +15,15 @@
 //!   by mean colour;
 //! - [`flow`]: step 3, coarse-to-fine TV-L1 optical flow between consecutive frames (Zach,
 //!   Pock & Bischof 2007, with the IPOL 2013 defaults);
+//! - [`propagate`]: steps 4 and 5, the cluster tables `𝓡_k`, `𝓘_k` (§3.4), the
+//!   high-confidence MAP propagation of the clusters along the flow (§3.5.1–3.5.2) and the
+//!   stopping condition (§3.5.3).
 //! - [`truth`]: the evaluation's ground truth, a sequence folder with `input/`,
 //!   `reflectance/`, `shading/` frames and the exact flow as Middlebury `.flo` files
 //!   (rendered by `scripts/render_video.py`, described in `docs/video-data.md`), read lazily.
 
 pub mod flow;
 pub mod frames;
+pub mod propagate;
 pub mod segment;
 pub mod truth;

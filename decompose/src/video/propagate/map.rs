@@ -1,0 +1,424 @@
+//! MAP propagation of the clusters from frame t to frame t+1 (§3.5.1–3.5.2; see the module docs
+//! of `propagate` for the formulas and their reading).
+
+use rayon::prelude::*;
+
+use crate::decomposition::Labels;
+use crate::error::{Error, Result};
+use crate::image::{Image, Mask};
+use crate::video::flow::Flow;
+
+use super::tables::{Candidate, ClusterTables, colour8};
+use super::{PropagateParams, check_labels};
+
+/// Result of [`propagate`]: frame t+1's labels and reflectance where assigned.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Propagation {
+    /// The cluster of each pixel of frame t+1, [`Labels::NONE`] where unassigned; `count` is
+    /// the tables' cluster count.
+    pub labels: Labels,
+    /// Reflectance (3 channels, linear) of the assigned pixels, read from `𝓘_k`; 0 elsewhere.
+    pub reflectance: Image,
+    /// The MAP cluster's posterior per pixel (also where it was not confident enough); 0 where
+    /// no cluster was a candidate or the pixel has no source in frame t.
+    pub posterior: Vec<f32>,
+    /// Number of assigned pixels.
+    pub assigned: usize,
+}
+
+impl Propagation {
+    /// Fraction of the frame's pixels that were assigned.
+    pub fn assigned_fraction(&self) -> f64 {
+        self.assigned as f64 / self.labels.data.len() as f64
+    }
+
+    /// `true` where a pixel was assigned (the input of [`super::should_stop`]).
+    pub fn assigned_mask(&self) -> Mask {
+        let data = self
+            .labels
+            .data
+            .iter()
+            .map(|&l| l != Labels::NONE)
+            .collect();
+        Mask::from_vec(self.labels.width, self.labels.height, data)
+            .expect("labels buffer has width * height entries")
+    }
+}
+
+/// Propagates the clusters of frame t (`prev`, with [`Labels::NONE`] for its unassigned
+/// pixels) to frame t+1 (`next`, linear RGB) along `flow` (from t to t+1), by the
+/// high-confidence MAP assignment of §3.5.1–3.5.2 with the likelihood of `tables`.
+///
+/// Errors: [`Error::InvalidParam`] for bad `params` or a label of `prev` not below
+/// `tables.cluster_count()`; [`Error::EmptyImage`]; [`Error::ShapeMismatch`] when `next` or
+/// `flow` differ in size from `prev`.
+pub fn propagate(
+    tables: &ClusterTables,
+    prev: &Labels,
+    next: &Image,
+    flow: &Flow,
+    params: &PropagateParams,
+) -> Result<Propagation> {
+    params.validate()?;
+    check_labels(prev)?;
+    let dims = (prev.width, prev.height);
+    next.check_dims(dims).map_err(|_| Error::ShapeMismatch {
+        expected: dims,
+        got: next.dims(),
+    })?;
+    if flow.dims() != dims {
+        return Err(Error::ShapeMismatch {
+            expected: dims,
+            got: flow.dims(),
+        });
+    }
+    let k_count = tables.cluster_count();
+    if let Some(&l) = prev
+        .data
+        .iter()
+        .find(|&&l| l != Labels::NONE && l as usize >= k_count)
+    {
+        return Err(Error::param(
+            "label",
+            l,
+            "must be below the tables' cluster count (or Labels::NONE)",
+        ));
+    }
+    let (w, h) = (dims.0 as usize, dims.1 as usize);
+    let n = w * h;
+
+    // Likelihoods (eq. 3.6) once per distinct 8-bit colour of frame t+1.
+    let packed: Vec<u32> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let [r, g, b] = colour8(next.rgb(i));
+            u32::from_be_bytes([0, r, g, b])
+        })
+        .collect();
+    let mut distinct = packed.clone();
+    distinct.par_sort_unstable();
+    distinct.dedup();
+    // Runs of distinct colours that share (red, green), each handled by one task in order.
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (j, &c) in distinct.iter().enumerate() {
+        match runs.last_mut() {
+            Some(run) if distinct[run.0] >> 8 == c >> 8 => run.1 = j + 1,
+            _ => runs.push((j, j + 1)),
+        }
+    }
+    let per_colour: Vec<Vec<Candidate>> = runs
+        .par_iter()
+        .flat_map_iter(|&(a, b)| {
+            let [_, r, g, _] = distinct[a].to_be_bytes();
+            let blues: Vec<u8> = distinct[a..b].iter().map(|&c| c as u8).collect();
+            let counts = tables.counts_along_blue(r, g, &blues, params.d);
+            counts.into_iter().zip(blues).map(move |(cs, b)| {
+                cs.into_iter()
+                    .map(|(k, count)| Candidate {
+                        cluster: k,
+                        likelihood: count as f64 / tables.pixels(k) as f64,
+                        reflectance: tables.colour_reflectance(k, [r, g, b]),
+                    })
+                    .collect::<Vec<_>>()
+            })
+        })
+        .collect();
+    let colour_index: Vec<u32> = packed
+        .par_iter()
+        .map(|c| {
+            distinct
+                .binary_search(c)
+                .expect("colour is in its own list") as u32
+        })
+        .collect();
+
+    // p′, the pixel of frame t that flows onto p (rounded), or NONE when outside frame t.
+    let source: Vec<u32> = (0..n)
+        .into_par_iter()
+        .map(|i| source_pixel(flow, i % w, i / w))
+        .collect();
+
+    // One slot per (pixel, candidate cluster): the squared distance from p′ to the cluster's
+    // nearest pixel in frame t. 0 where p′ lands on the cluster; the others are requested
+    // from a per-cluster distance transform.
+    let mut offsets = Vec::with_capacity(n + 1);
+    offsets.push(0usize);
+    let mut dist2: Vec<f64> = Vec::new();
+    let mut requests: Vec<Vec<(usize, u32)>> = vec![Vec::new(); k_count];
+    for i in 0..n {
+        let src = source[i];
+        if src != NONE {
+            let own = prev.data[src as usize];
+            for cand in &per_colour[colour_index[i] as usize] {
+                if cand.cluster == own {
+                    dist2.push(0.0);
+                } else {
+                    requests[cand.cluster as usize].push((dist2.len(), src));
+                    dist2.push(f64::INFINITY);
+                }
+            }
+        }
+        offsets.push(dist2.len());
+    }
+    let radius = params.n as f64 / 2.0;
+    let answers: Vec<Vec<f64>> = requests
+        .par_iter()
+        .enumerate()
+        .map(|(k, req)| {
+            if req.is_empty() {
+                return Vec::new();
+            }
+            nearest_dist2(prev, k as u32, req, radius.floor() as usize)
+        })
+        .collect();
+    for (req, ans) in requests.iter().zip(&answers) {
+        for (&(slot, _), &d2) in req.iter().zip(ans) {
+            dist2[slot] = d2;
+        }
+    }
+
+    // Posterior and the confidence test (§3.5.2), per pixel.
+    let r2 = radius * radius;
+    let decided: Vec<(u32, Option<[f32; 3]>, f32)> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let slots = &dist2[offsets[i]..offsets[i + 1]];
+            if slots.is_empty() {
+                return (Labels::NONE, None, 0.0);
+            }
+            let cands = &per_colour[colour_index[i] as usize];
+            let (mut sum, mut best, mut second, mut arg) = (0.0f64, 0.0f64, 0.0f64, None);
+            for (cand, &d2) in cands.iter().zip(slots) {
+                if d2 > r2 {
+                    continue;
+                }
+                // Eq. 3.7 with D floored at one pixel (D = 0 would be an infinite prior).
+                let prior = d2.max(1.0).powf(-0.25);
+                let score = cand.likelihood * prior;
+                sum += score;
+                if score > best {
+                    second = best;
+                    best = score;
+                    arg = Some(cand);
+                } else if score > second {
+                    second = score;
+                }
+            }
+            let Some(cand) = arg else {
+                return (Labels::NONE, None, 0.0);
+            };
+            let posterior = best / sum;
+            if posterior >= params.epsilon && best >= params.beta * second {
+                (cand.cluster, cand.reflectance, posterior as f32)
+            } else {
+                (Labels::NONE, None, posterior as f32)
+            }
+        })
+        .collect();
+
+    // Assigned pixels whose colour has no bin of its own in 𝓘_k take the mean reflectance of
+    // k's bins inside the Parzen ball, computed once per (colour, cluster).
+    let mut missing: Vec<(u32, u32)> = decided
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.0 != Labels::NONE && d.1.is_none())
+        .map(|(i, d)| (colour_index[i], d.0))
+        .collect();
+    missing.sort_unstable();
+    missing.dedup();
+    let fallback: Vec<[f32; 3]> = missing
+        .par_iter()
+        .map(|&(c, k)| {
+            let [_, r, g, b] = distinct[c as usize].to_be_bytes();
+            tables
+                .ball_mean([r, g, b], params.d, k)
+                .expect("an assigned cluster has a bin in the ball")
+        })
+        .collect();
+
+    let mut labels = Vec::with_capacity(n);
+    let mut refl = Vec::with_capacity(3 * n);
+    let mut posterior = Vec::with_capacity(n);
+    for (i, (l, r, p)) in decided.into_iter().enumerate() {
+        let r = match r {
+            Some(r) => r,
+            None if l != Labels::NONE => {
+                let j = missing
+                    .binary_search(&(colour_index[i], l))
+                    .expect("listed above");
+                fallback[j]
+            }
+            None => [0.0; 3],
+        };
+        labels.push(l);
+        refl.extend_from_slice(&r);
+        posterior.push(p);
+    }
+    let assigned = labels.iter().filter(|&&l| l != Labels::NONE).count();
+    Ok(Propagation {
+        labels: Labels {
+            width: dims.0,
+            height: dims.1,
+            data: labels,
+            count: k_count,
+        },
+        reflectance: Image::from_vec(dims.0, dims.1, 3, refl)?,
+        posterior,
+        assigned,
+    })
+}
+
+/// Marks a pixel without a source in frame t.
+const NONE: u32 = u32::MAX;
+
+/// The row-major index of the pixel of frame t that the flow carries onto `(x, y)` of frame
+/// t+1: `p′ = p − f(p′)` by fixed-point iteration, rounded; [`NONE`] when outside the frame.
+pub(super) fn source_pixel(flow: &Flow, x: usize, y: usize) -> u32 {
+    let (w, h) = (flow.width() as usize, flow.height() as usize);
+    let (px, py) = (x as f32, y as f32);
+    let i = y * w + x;
+    let (mut sx, mut sy) = (px - flow.u()[i], py - flow.v()[i]);
+    for _ in 0..2 {
+        if !(sx.is_finite() && sy.is_finite()) {
+            return NONE;
+        }
+        let (u, v) = bilinear(flow, sx, sy);
+        sx = px - u;
+        sy = py - v;
+    }
+    let (rx, ry) = (sx.round(), sy.round());
+    if !(rx >= 0.0 && ry >= 0.0 && rx <= (w - 1) as f32 && ry <= (h - 1) as f32) {
+        return NONE;
+    }
+    (ry as usize * w + rx as usize) as u32
+}
+
+/// The flow at a real position, bilinear, with the border replicated.
+fn bilinear(flow: &Flow, x: f32, y: f32) -> (f32, f32) {
+    let (w, h) = (flow.width() as usize, flow.height() as usize);
+    let x = x.clamp(0.0, (w - 1) as f32);
+    let y = y.clamp(0.0, (h - 1) as f32);
+    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+    let at = |d: &[f32]| {
+        let top = d[y0 * w + x0] * (1.0 - fx) + d[y0 * w + x1] * fx;
+        let bottom = d[y1 * w + x0] * (1.0 - fx) + d[y1 * w + x1] * fx;
+        top * (1.0 - fy) + bottom * fy
+    };
+    (at(flow.u()), at(flow.v()))
+}
+
+/// Squared Euclidean distance from each requested pixel of frame t (`req[j].1`, row-major) to
+/// the nearest pixel labelled `k`, exact up to `reach` pixels (farther answers may be larger
+/// than the truth or infinite). Felzenszwalb & Huttenlocher's two-pass distance transform over
+/// the requests' bounding box grown by `reach`: a pixel of `k` outside that box is more than
+/// `reach` away from every request.
+pub(super) fn nearest_dist2(prev: &Labels, k: u32, req: &[(usize, u32)], reach: usize) -> Vec<f64> {
+    let w = prev.width as usize;
+    let h = prev.height as usize;
+    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
+    for &(_, s) in req {
+        let (x, y) = (s as usize % w, s as usize / w);
+        x0 = x0.min(x);
+        y0 = y0.min(y);
+        x1 = x1.max(x);
+        y1 = y1.max(y);
+    }
+    let (x0, y0) = (x0.saturating_sub(reach), y0.saturating_sub(reach));
+    let (x1, y1) = ((x1 + reach).min(w - 1), (y1 + reach).min(h - 1));
+    let (bw, bh) = (x1 - x0 + 1, y1 - y0 + 1);
+
+    // Vertical pass: squared distance to the nearest site in the same column.
+    let mut f = vec![f64::INFINITY; bw * bh];
+    let mut last = vec![None::<usize>; bw];
+    for by in 0..bh {
+        let row = &prev.data[(y0 + by) * w + x0..(y0 + by) * w + x0 + bw];
+        for bx in 0..bw {
+            if row[bx] == k {
+                last[bx] = Some(by);
+            }
+            if let Some(l) = last[bx] {
+                f[by * bw + bx] = ((by - l) * (by - l)) as f64;
+            }
+        }
+    }
+    let mut next = vec![None::<usize>; bw];
+    for by in (0..bh).rev() {
+        let row = &prev.data[(y0 + by) * w + x0..(y0 + by) * w + x0 + bw];
+        for bx in 0..bw {
+            if row[bx] == k {
+                next[bx] = Some(by);
+            }
+            if let Some(l) = next[bx] {
+                let d = ((l - by) * (l - by)) as f64;
+                let slot = &mut f[by * bw + bx];
+                *slot = slot.min(d);
+            }
+        }
+    }
+
+    // Horizontal pass, only on the rows that hold a request.
+    let mut rows: Vec<usize> = req.iter().map(|&(_, s)| s as usize / w - y0).collect();
+    rows.sort_unstable();
+    rows.dedup();
+    let mut out_rows = vec![Vec::new(); bh];
+    let (mut v, mut z) = (Vec::new(), Vec::new());
+    for by in rows {
+        let mut out = vec![0.0; bw];
+        lower_envelope(&f[by * bw..(by + 1) * bw], &mut out, &mut v, &mut z);
+        out_rows[by] = out;
+    }
+    req.iter()
+        .map(|&(_, s)| {
+            let (x, y) = (s as usize % w - x0, s as usize / w - y0);
+            out_rows[y][x]
+        })
+        .collect()
+}
+
+/// One-dimensional squared distance transform `out[q] = min_p (q − p)² + f[p]` by the lower
+/// envelope of parabolas (Felzenszwalb & Huttenlocher, "Distance Transforms of Sampled
+/// Functions", 2012, Algorithm 1), skipping infinite `f`.
+fn lower_envelope(f: &[f64], out: &mut [f64], v: &mut Vec<usize>, z: &mut Vec<f64>) {
+    v.clear();
+    z.clear();
+    for (q, &fq) in f.iter().enumerate() {
+        if !fq.is_finite() {
+            continue;
+        }
+        let hq = fq + (q * q) as f64;
+        loop {
+            match v.last() {
+                None => {
+                    v.push(q);
+                    z.push(f64::NEG_INFINITY);
+                    break;
+                }
+                Some(&p) => {
+                    let s = (hq - (f[p] + (p * p) as f64)) / (2 * (q - p)) as f64;
+                    if s <= *z.last().expect("z and v have equal lengths") {
+                        v.pop();
+                        z.pop();
+                    } else {
+                        v.push(q);
+                        z.push(s);
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    if v.is_empty() {
+        out.fill(f64::INFINITY);
+        return;
+    }
+    let mut j = 0;
+    for (q, o) in out.iter_mut().enumerate() {
+        while j + 1 < v.len() && z[j + 1] < q as f64 {
+            j += 1;
+        }
+        let p = v[j];
+        *o = ((q as f64) - p as f64).powi(2) + f[p];
+    }
+}
