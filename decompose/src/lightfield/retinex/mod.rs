@@ -85,7 +85,10 @@ pub struct ViewSolveParams {
     /// leave-one-scene-out cross-validation on the rendered tuning scenes among 1e-3 / 1e-2 /
     /// 3e-2: mean LMSE 0.0488 / 0.0460 / 0.0485 at θ_a = 0.005 (see `CueParams::theta_a`).
     pub mu: f64,
-    /// Relative residual `‖b − As‖ / ‖b‖` at which conjugate gradients stop. Default 1e-5.
+    /// Relative residual `‖b − As‖ / ‖b‖` at which conjugate gradients stop. Default 1e-4:
+    /// against 1e-5 it saves 0.4–0.6 s of the 9.7 s of `bench --lightfield 512`, and the mean
+    /// scores of the tuning and test scenes agree to every printed digit (LMSE 0.0459 /
+    /// incoherence 0.00892 on tune, 0.0651 / 0.02490 on test).
     pub tolerance: f64,
     /// Iteration cap of conjugate gradients. Default 2000.
     pub max_iterations: usize,
@@ -98,7 +101,7 @@ impl Default for ViewSolveParams {
     fn default() -> Self {
         Self {
             mu: 1e-2,
-            tolerance: 1e-5,
+            tolerance: 1e-4,
             max_iterations: 2000,
             preconditioner: Preconditioner::default(),
         }
