@@ -25,18 +25,6 @@ use decompose::video::flow::{Flow, TvL1FlowParams, endpoint_error, flow_with_inf
 
 const SHIFT: (f64, f64) = (3.3, -1.7);
 
-/// CPU seconds of this process (user + system, all threads), from /proc/self/stat.
-fn cpu_seconds() -> f64 {
-    std::fs::read_to_string("/proc/self/stat")
-        .ok()
-        .and_then(|s| {
-            let f: Vec<&str> = s.rsplit_once(')')?.1.split_whitespace().collect();
-            let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
-            Some(ticks / 100.0)
-        })
-        .unwrap_or(f64::NAN)
-}
-
 /// A smooth random texture (24 waves of 6–80 px), quantised to 8-bit display values so that
 /// the PNG written for OpenCV holds exactly these frames.
 fn texture(seed: u64) -> impl Fn(f64, f64) -> f32 {
@@ -125,14 +113,14 @@ fn table(
     for (name, p) in settings {
         let mut times = Vec::new();
         let mut last = None;
-        let cpu0 = cpu_seconds();
+        let cpu0 = decompose::process::cpu_seconds().unwrap_or(f64::NAN);
         for _ in 0..3 {
             let start = Instant::now();
             let r = flow_with_info(prev, next, p)?;
             times.push(start.elapsed().as_secs_f64());
             last = Some(r);
         }
-        let cpu = (cpu_seconds() - cpu0) / 3.0;
+        let cpu = (decompose::process::cpu_seconds().unwrap_or(f64::NAN) - cpu0) / 3.0;
         times.sort_by(f64::total_cmp);
         let (f, info) = last.expect("three runs");
         let epe = endpoint_error(&f, truth, 16)?;

@@ -30,18 +30,6 @@ const SHIFT: (i32, i32) = (3, -2);
 /// Relative amplitude of the per-pixel reflectance texture.
 const TEXTURE: f32 = 0.08;
 
-/// CPU seconds of this process (user + system, all threads), from /proc/self/stat.
-fn cpu_seconds() -> f64 {
-    std::fs::read_to_string("/proc/self/stat")
-        .ok()
-        .and_then(|s| {
-            let f: Vec<&str> = s.rsplit_once(')')?.1.split_whitespace().collect();
-            let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
-            Some(ticks / 100.0)
-        })
-        .unwrap_or(f64::NAN)
-}
-
 struct Scene {
     seeds: Vec<(f32, f32)>,
     albedo: Vec<[f32; 3]>,
@@ -159,7 +147,7 @@ fn main() -> decompose::Result<()> {
     let mut t_tables = Vec::new();
     let mut t_prop = Vec::new();
     let mut t_stop = Vec::new();
-    let cpu0 = cpu_seconds();
+    let cpu0 = decompose::process::cpu_seconds().unwrap_or(f64::NAN);
     let mut last = None;
     for _ in 0..5 {
         let t = Instant::now();
@@ -177,7 +165,7 @@ fn main() -> decompose::Result<()> {
         t_stop.push(t.elapsed().as_secs_f64());
         last = Some((p, stop));
     }
-    let cpu = (cpu_seconds() - cpu0) / 5.0;
+    let cpu = (decompose::process::cpu_seconds().unwrap_or(f64::NAN) - cpu0) / 5.0;
     let (p, stop) = last.expect("ran");
     let correct = p
         .labels

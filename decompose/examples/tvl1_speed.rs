@@ -19,29 +19,6 @@ use decompose::io::{self, LoadOptions};
 use decompose::lightfield::LightField;
 use decompose::lightfield::tvl1::{TvL1Params, tv_l1};
 
-fn peak_rss_mb() -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("VmHWM:"))
-                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
-        })
-        .map_or(f64::NAN, |kb| kb / 1024.0)
-}
-
-/// CPU seconds of this process (user + system, all threads), from /proc/self/stat.
-fn cpu_seconds() -> f64 {
-    std::fs::read_to_string("/proc/self/stat")
-        .ok()
-        .and_then(|s| {
-            let f: Vec<&str> = s.rsplit_once(')')?.1.split_whitespace().collect();
-            let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
-            Some(ticks / 100.0)
-        })
-        .unwrap_or(f64::NAN)
-}
-
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let path = args
@@ -91,7 +68,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
          peak RSS before filtering {:.0} MB",
         lf.data().len() as f64 * 4.0 / 1e6,
         rayon::current_num_threads(),
-        peak_rss_mb()
+        decompose::process::peak_rss_mib().unwrap_or(f64::NAN)
     );
     let mut rows = Vec::new();
     for &it in &iters {
@@ -101,10 +78,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             tolerance: 0.0,
             ..TvL1Params::default()
         };
-        let (t, cpu) = (Instant::now(), cpu_seconds());
+        let (t, cpu) = (
+            Instant::now(),
+            decompose::process::cpu_seconds().unwrap_or(f64::NAN),
+        );
         let (_, info) = tv_l1(&lf, &params)?;
         let wall = t.elapsed().as_secs_f64();
-        rows.push((it, wall, cpu_seconds() - cpu, info, peak_rss_mb()));
+        rows.push((
+            it,
+            wall,
+            decompose::process::cpu_seconds().unwrap_or(f64::NAN) - cpu,
+            info,
+            decompose::process::peak_rss_mib().unwrap_or(f64::NAN),
+        ));
     }
     let best = rows
         .iter()

@@ -13,7 +13,8 @@
 //!
 //! Around them: image files ([`io`]), error measures ([`metrics`]: LMSE, scale-invariant MSE,
 //! WHDR), synthetic ground truth ([`synthetic`]), editing applications ([`edit`]) and plots
-//! ([`plot`]). The library never prints; long runs report through a [`progress`] callback.
+//! ([`plot`]), and the process figures benchmarks report ([`process`]: CPU time, peak memory).
+//! The library never prints; long runs report through a [`progress`] callback.
 //!
 //! ```
 //! use decompose::{clustering, synthetic};
@@ -47,6 +48,7 @@ pub mod kmeans;
 pub mod lightfield;
 pub mod metrics;
 pub mod plot;
+pub mod process;
 pub mod progress;
 pub mod retinex;
 pub mod solver;

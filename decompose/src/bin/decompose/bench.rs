@@ -10,6 +10,7 @@ use clap::Args;
 use decompose::Image;
 use decompose::clustering::{self, ClusteringParams};
 use decompose::io::{self, LoadOptions};
+use decompose::process::{cpu_seconds, peak_rss_mib};
 
 use crate::common::out;
 
@@ -22,25 +23,6 @@ pub(crate) struct BenchArgs {
     /// decomposed by the light-field method (per-stage split) and by per-view Retinex.
     #[arg(long, value_name = "SIZE")]
     lightfield: Option<u32>,
-}
-
-pub(crate) fn peak_rss_mib() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb / 1024.0)
-}
-
-/// CPU seconds (user + system) this process has used, from `/proc/self/stat` (Linux; the
-/// kernel's clock tick is 100 Hz on every mainstream configuration). On a shared machine the
-/// CPU time is the honest figure: wall time then includes other people's work.
-fn cpu_seconds() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
-    let rest = &s[s.rfind(')')? + 2..];
-    let fields: Vec<&str> = rest.split_whitespace().collect();
-    let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
-    Some(ticks / 100.0)
 }
 
 pub(crate) fn run_bench(a: BenchArgs) -> Result<()> {
