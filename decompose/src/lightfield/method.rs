@@ -23,8 +23,9 @@ use super::retinex::{ViewSolveInfo, ViewSolveParams, solve_view};
 use super::tvl1::{TvL1Info, TvL1Params, tv_l1};
 use crate::decomposition::{Decomposition, SHADING_FLOOR};
 use crate::error::{Error, Result};
-use crate::image::Image;
 use crate::progress::{Progress, ProgressFn};
+
+pub use baselines::{per_view, per_view_retinex};
 
 /// Parameters of [`decompose`]. `Default` holds the thesis' values except where the rendered
 /// tuning scenes said otherwise (each such field says so, with the figures).
@@ -64,7 +65,8 @@ pub const REFLECTANCE_BETA: f32 = 0.3;
 /// ρ of the reflectance filter. With a log-domain signal (contrasts of order 1 rather than 0.1)
 /// the filter's primal steps `τ = 1/(16ρ)` must be longer than at the ρ = 10 tuned for images
 /// in [0, 1]: on the 4 tuning scenes, 30 iterations at ρ = 3 score like 100 at ρ = 10 (mean
-/// LMSE 0.0557 / 0.0553, incoherence 0.0077 / 0.0076) in under a third of the time.
+/// LMSE 0.0557 / 0.0553, incoherence 0.0077 / 0.0076, both at the thesis' cue settings) in
+/// under a third of the time.
 pub const REFLECTANCE_RHO: f32 = 3.0;
 
 /// Iterations of the reflectance filter: 30. The filter starts from `u⁰ = R_g1` and is stopped
@@ -393,40 +395,7 @@ pub fn decompose(
     ))
 }
 
-/// Every view decomposed on its own by a single-image method (the per-view baselines of the
-/// evaluation), returned as a light-field decomposition.
-pub fn per_view(
-    lf: &LightField,
-    method: impl Fn(&Image) -> Result<Decomposition> + Sync,
-) -> Result<LightFieldDecomposition> {
-    let views: Vec<Decomposition> = (0..lf.views())
-        .into_par_iter()
-        .map(|v| method(&lf.view(v)))
-        .collect::<Result<_>>()?;
-    let reflectance: Vec<Image> = views.iter().map(|d| d.reflectance.clone()).collect();
-    let shading: Vec<Image> = views.into_iter().map(|d| d.shading).collect();
-    Ok(LightFieldDecomposition {
-        reflectance: LightField::from_views(lf.rows(), lf.cols(), &reflectance)?,
-        shading: LightField::from_views(lf.rows(), lf.cols(), &shading)?,
-    })
-}
-
-/// The per-view Retinex baseline: Zhao et al. ([`crate::retinex`], default parameters) on every
-/// view alone.
-pub fn per_view_retinex(lf: &LightField) -> Result<LightFieldDecomposition> {
-    use crate::retinex::{self, RetinexParams, Strokes};
-    per_view(lf, |img| {
-        retinex::decompose(
-            img,
-            None,
-            &Strokes::default(),
-            &RetinexParams::default(),
-            &mut |_| {},
-        )
-        .map(|(d, _)| d)
-    })
-}
-
+mod baselines;
 mod coherency;
 #[cfg(test)]
 mod tests;
