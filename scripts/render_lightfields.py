@@ -251,6 +251,14 @@ def scene_dict(seed, tmp):
     return d, {"objects": n_objects, "area_light": area, "surfaces": kinds, "point_light": light, "fill_light": fill}
 
 
+def sampler(spp, seed, centre_only):
+    """Mitsuba sampler: one unjittered sample at each pixel centre (for the position AOV that
+    the exact disparity and flow come from), else `spp` independent seeded samples."""
+    if centre_only:
+        return {"type": "stratified", "sample_count": 1, "jitter": False}
+    return {"type": "independent", "sample_count": spp, "seed": seed}
+
+
 class Rig:
     """The camera grid: HCI geometry (see the module docstring)."""
 
@@ -279,11 +287,6 @@ class Rig:
         in x and -(row - c0) b f / focus in y (a camera to the right looks a little left)."""
         shift = self.baseline_m * self.f_px / self.focus_m
         o = self.position(row, col)
-        sampler = (
-            {"type": "stratified", "sample_count": 1, "jitter": False}
-            if centre_only
-            else {"type": "independent", "sample_count": spp, "seed": seed}
-        )
         return {
             "type": "perspective",
             "fov": self.fov,
@@ -292,7 +295,7 @@ class Rig:
             "principal_point_offset_y": -(row - self.c0) * shift / self.size,
             "to_world": T.look_at(origin=o.tolist(), target=(o + self.forward).tolist(), up=self.up.tolist()),
             "film": {"type": "hdrfilm", "width": self.size, "height": self.size, "rfilter": {"type": "box"}},
-            "sampler": sampler,
+            "sampler": sampler(spp, seed, centre_only),
         }
 
     def depth(self, positions, row, col):

@@ -106,18 +106,13 @@ class Camera:
         self.f_px = width / 2 / math.tan(math.radians(fov) / 2)
 
     def sensor(self, spp, seed, centre_only=False):
-        sampler = (
-            {"type": "stratified", "sample_count": 1, "jitter": False}
-            if centre_only
-            else {"type": "independent", "sample_count": spp, "seed": seed}
-        )
         return {
             "type": "perspective",
             "fov": self.fov,
             "fov_axis": "x",
             "to_world": T.look_at(origin=self.o.tolist(), target=self.target.tolist(), up=lf.UP.tolist()),
             "film": {"type": "hdrfilm", "width": self.w, "height": self.h, "rfilter": {"type": "box"}},
-            "sampler": sampler,
+            "sampler": lf.sampler(spp, seed, centre_only),
         }
 
     def project(self, p):

@@ -32,34 +32,35 @@ pub(super) fn gaussian(data: &mut [f64], width: usize, height: usize, channels: 
     let Some(k) = kernel(sigma) else {
         return;
     };
+    let index_y =
+        |line: usize, y: usize| (y * width + line / channels) * channels + line % channels;
+    let index_x =
+        |line: usize, x: usize| (line / channels * width + x) * channels + line % channels;
+    // Along y (one column of one channel per line), then along x.
+    blur_lines(data, &k, width * channels, height, index_y);
+    blur_lines(data, &k, height * channels, width, index_x);
+}
+
+/// Convolves `lines` lines of `len` samples with the kernel `k`, borders reflected; sample
+/// `pos` of line `line` is `data[index(line, pos)]`.
+fn blur_lines(
+    data: &mut [f64],
+    k: &[f64],
+    lines: usize,
+    len: usize,
+    index: impl Fn(usize, usize) -> usize,
+) {
     let r = (k.len() / 2) as i64;
-    let mut line = Vec::new();
-    // Along y: one column of one channel at a time.
-    for x in 0..width {
-        for c in 0..channels {
-            line.clear();
-            line.extend((0..height).map(|y| data[(y * width + x) * channels + c]));
-            for y in 0..height {
-                let mut acc = 0.0;
-                for (j, w) in k.iter().enumerate() {
-                    acc += w * line[reflect(y as i64 + j as i64 - r, height as i64)];
-                }
-                data[(y * width + x) * channels + c] = acc;
+    let mut line = Vec::with_capacity(len);
+    for l in 0..lines {
+        line.clear();
+        line.extend((0..len).map(|p| data[index(l, p)]));
+        for p in 0..len {
+            let mut acc = 0.0;
+            for (j, w) in k.iter().enumerate() {
+                acc += w * line[reflect(p as i64 + j as i64 - r, len as i64)];
             }
-        }
-    }
-    // Along x.
-    for y in 0..height {
-        for c in 0..channels {
-            line.clear();
-            line.extend((0..width).map(|x| data[(y * width + x) * channels + c]));
-            for x in 0..width {
-                let mut acc = 0.0;
-                for (j, w) in k.iter().enumerate() {
-                    acc += w * line[reflect(x as i64 + j as i64 - r, width as i64)];
-                }
-                data[(y * width + x) * channels + c] = acc;
-            }
+            data[index(l, p)] = acc;
         }
     }
 }
