@@ -7,7 +7,8 @@ use crate::error::{Error, Result};
 use crate::image::{Image, Mask, resolve_mask};
 use crate::kmeans::{KMeansParams, kmeans};
 
-fn compose(refl: &Image, shading: &Image) -> Image {
+/// `R × S` for a 3-channel reflectance and a 1-channel shading of the same size.
+pub(crate) fn compose(refl: &Image, shading: &Image) -> Image {
     let mut out = refl.clone();
     for i in 0..out.len() {
         let s = shading.px(i)[0];
@@ -143,6 +144,21 @@ impl Curve {
             + (-2.0 * t3 + 3.0 * t2) * self.ys[k + 1]
             + (t3 - t2) * h * self.slopes[k + 1]
     }
+
+    /// Evaluates the curve, continued beyond the end points along the end slopes instead of
+    /// held constant: a value past the range the control points were drawn for (a frame
+    /// brighter than the one the curve was set on) keeps its order, and the identity points
+    /// give the identity everywhere.
+    pub fn eval_extended(&self, x: f32) -> f32 {
+        let n = self.xs.len();
+        if x < self.xs[0] {
+            return self.ys[0] + (x - self.xs[0]) * self.slopes[0];
+        }
+        if x > self.xs[n - 1] {
+            return self.ys[n - 1] + (x - self.xs[n - 1]) * self.slopes[n - 1];
+        }
+        self.eval(x)
+    }
 }
 
 /// Relighting / material edit: the shading, normalised by its maximum, is remapped through
@@ -198,6 +214,33 @@ pub struct StyliseParams {
     pub edge_threshold: f32,
 }
 
+impl StyliseParams {
+    /// Checks the ranges documented on the fields.
+    pub(crate) fn validate(&self) -> Result<()> {
+        let unit = |v: f32| v.is_finite() && (0.0..=1.0).contains(&v);
+        let valid = unit(self.flatten)
+            && unit(self.edge_strength)
+            && self.saturation.is_finite()
+            && self.saturation >= 0.0
+            && self.edge_threshold.is_finite();
+        if valid {
+            Ok(())
+        } else {
+            Err(Error::param(
+                "stylise",
+                format!("{self:?}"),
+                "flatten and edge_strength in [0, 1], saturation >= 0",
+            ))
+        }
+    }
+}
+
+/// Scales the HSV saturation of a colour by `factor` (clamped to [0, 1]), keeping hue and value.
+pub(crate) fn saturate(p: [f32; 3], factor: f32) -> [f32; 3] {
+    let [h, s, v] = rgb_to_hsv(p);
+    hsv_to_rgb([h, (s * factor).clamp(0.0, 1.0), v])
+}
+
 impl Default for StyliseParams {
     fn default() -> Self {
         Self {
@@ -212,27 +255,14 @@ impl Default for StyliseParams {
 /// Stylisation: reflectance saturation change, flattened shading, and dark lines where the
 /// reflectance changes (a cartoon-like look, thesis §2.6).
 pub fn stylise(d: &Decomposition, p: &StyliseParams) -> Result<Image> {
-    let unit = |v: f32| v.is_finite() && (0.0..=1.0).contains(&v);
-    let valid = unit(p.flatten)
-        && unit(p.edge_strength)
-        && p.saturation.is_finite()
-        && p.saturation >= 0.0
-        && p.edge_threshold.is_finite();
-    if !valid {
-        return Err(Error::param(
-            "stylise",
-            format!("{p:?}"),
-            "flatten and edge_strength in [0, 1], saturation >= 0",
-        ));
-    }
+    p.validate()?;
     let r = &d.reflectance;
     let (w, h) = (r.width() as usize, r.height() as usize);
     let mean_s = d.shading.data().iter().map(|&v| v as f64).sum::<f64>() / r.len().max(1) as f64;
     let mut out = Image::new(r.width(), r.height(), 3);
     let lr = |i: usize, c: usize| (r.px(i)[c].max(1e-4)).ln();
     for i in 0..r.len() {
-        let [hh, s, v] = rgb_to_hsv(r.rgb(i));
-        let q = hsv_to_rgb([hh, (s * p.saturation).clamp(0.0, 1.0), v]);
+        let q = saturate(r.rgb(i), p.saturation);
         let sh = (1.0 - p.flatten) * d.shading.px(i)[0] + p.flatten * mean_s as f32;
         let (x, y) = (i % w, i / w);
         let mut g = 0.0f32;

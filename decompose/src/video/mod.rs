@@ -18,10 +18,14 @@
 //! - [`propagate`]: steps 4 and 5, the cluster tables `𝓡_k`, `𝓘_k` (§3.4), the
 //!   high-confidence MAP propagation of the clusters along the flow (§3.5.1–3.5.2) and the
 //!   stopping condition (§3.5.3).
+//! - [`edit`]: the applications (§3.8): segmentation, recolouring, colour transfer,
+//!   stylisation and material editing, each decided once and applied to every frame through
+//!   the cluster labels;
 //! - [`truth`]: the evaluation's ground truth, a sequence folder with `input/`,
 //!   `reflectance/`, `shading/` frames and the exact flow as Middlebury `.flo` files
 //!   (rendered by `scripts/render_video.py`, described in `docs/video-data.md`), read lazily.
 
+pub mod edit;
 pub mod flow;
 pub mod frames;
 pub mod propagate;
