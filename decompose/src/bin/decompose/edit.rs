@@ -11,6 +11,7 @@ use decompose::edit::{self, Curve, StyliseParams};
 use decompose::io::{self, Depth, Encoding};
 
 use crate::common::load_input;
+use crate::edit_video::{VideoEdit, run_edit_video};
 use crate::image_cmd::{DecomposeArgs, Run, run_method};
 
 #[derive(Args)]
@@ -96,6 +97,9 @@ pub(crate) enum EditCommand {
         #[arg(long, default_value_t = 6)]
         segments: usize,
     },
+    /// The video edits (`video-*`) on the output folder of `decompose video`.
+    #[command(flatten)]
+    Video(VideoEdit),
 }
 
 pub(crate) fn decompose_file(io_args: &EditIo) -> Result<(Image, Run)> {
@@ -124,6 +128,7 @@ pub(crate) fn save_edit(path: &Path, img: &Image) -> Result<()> {
 
 pub(crate) fn run_edit(e: EditCommand) -> Result<()> {
     match e {
+        EditCommand::Video(v) => run_edit_video(v),
         EditCommand::Recolour {
             io: a,
             region,

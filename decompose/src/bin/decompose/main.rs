@@ -5,6 +5,7 @@
 mod bench;
 mod common;
 mod edit;
+mod edit_video;
 mod eval;
 mod image_cmd;
 mod lightfield;
@@ -49,7 +50,8 @@ enum Command {
     EvalLightfield(EvalLightFieldArgs),
     /// Evaluate every method on the MIT intrinsic images (LMSE and scale-invariant MSE).
     Eval(EvalArgs),
-    /// Editing applications on a decomposition.
+    /// Editing applications on a decomposition (images; `video-*`: a `decompose video`
+    /// output folder).
     #[command(subcommand)]
     Edit(EditCommand),
     /// WHDR of a decomposition against IIW judgements (Bell et al. 2014).

@@ -9,7 +9,9 @@
 //! continues along the curve's end slope ([`crate::edit::Curve::eval_extended`]), so the
 //! identity points are the identity in every frame. The result is floored at 0.
 //!
-//! Unassigned pixels and clusters not chosen are unedited.
+//! Clusters not chosen are unedited, and so are unassigned pixels when clusters are chosen;
+//! a curve on every cluster is one fixed function of the shading and edits unassigned pixels
+//! too (the module's rule).
 
 use crate::decomposition::{Decomposition, Labels};
 use crate::edit::Curve;
@@ -63,21 +65,22 @@ impl MaterialEdit {
         self.scale
     }
 
-    /// Whether cluster `id` is edited.
+    /// Whether cluster `id` is edited ([`Labels::NONE`]: whether unassigned pixels are).
     pub fn edits(&self, id: u32) -> bool {
-        self.clusters.as_ref().is_none_or(|c| c.contains(id))
+        self.clusters
+            .as_ref()
+            .is_none_or(|c| id != Labels::NONE && c.contains(id))
     }
 
     /// The edited layers of one frame.
     pub fn apply(&self, frame: &Frame) -> Decomposition {
-        frame.edit_assigned(|_, l, r, s| {
-            if self.edits(l) {
-                let s2 = self.curve.eval_extended(s / self.scale).max(0.0) * self.scale;
-                (r, s2)
-            } else {
-                (r, s)
+        let curve = |s: f32| self.curve.eval_extended(s / self.scale).max(0.0) * self.scale;
+        match &self.clusters {
+            None => frame.edit_all(|_, _, r, s| (r, curve(s))),
+            Some(set) => {
+                frame.edit_assigned(|_, l, r, s| (r, if set.contains(l) { curve(s) } else { s }))
             }
-        })
+        }
     }
 }
 
@@ -129,6 +132,18 @@ mod tests {
                 }
             }
         }
+        // On every cluster, the curve is one function of the shading: unassigned pixels too.
+        let all = MaterialEdit::fit(&seq[0].frame(), curve.clone(), None).unwrap();
+        assert!(all.edits(Labels::NONE) && !m.edits(Labels::NONE));
+        let out = all.apply(&seq[1].frame());
+        let none = seq[1]
+            .labels
+            .data
+            .iter()
+            .position(|&l| l == Labels::NONE)
+            .unwrap();
+        let s = seq[1].shading.px(none)[0];
+        assert!((out.shading.px(none)[0] - curve.eval_extended(s / max0) * max0).abs() < 1e-6);
         assert!(MaterialEdit::new(curve, None, 0.0).is_err());
     }
 }

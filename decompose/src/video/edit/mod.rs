@@ -28,8 +28,15 @@
 //!
 //! **Unassigned pixels** (label [`Labels::NONE`], the pixels the method could not give a
 //! cluster) have no cluster to carry an edit, and guessing one per frame would bring the
-//! flicker back. They are therefore left **unedited** by every edit (their `R × S` is the
-//! input), count as **background** for the segmentation, and never draw an edge.
+//! flicker back. The rule, by what an edit depends on:
+//! - an edit decided **per cluster** leaves them **unedited** (their `R × S` is the input):
+//!   recolouring, a material curve on chosen clusters; for the segmentation they are
+//!   **background**, and they never draw a stylisation edge;
+//! - an edit that is **one fixed function of the pixel's own values** (the colour transfer's
+//!   mapping, the stylisation's saturation and flattening, a material curve on every cluster)
+//!   needs no cluster, so it is applied to them too: it is the same function in every frame
+//!   and cannot flicker, and leaving them out would leave holes of the old look wherever the
+//!   propagation was unsure.
 
 pub mod material;
 pub mod recolour;
@@ -39,6 +46,8 @@ pub mod transfer;
 
 #[cfg(test)]
 pub(crate) mod fixture;
+#[cfg(test)]
+mod tests;
 
 use crate::color::linear_to_lab;
 use crate::decomposition::{Decomposition, Labels};
@@ -102,15 +111,32 @@ impl<'a> Frame<'a> {
     }
 
     /// Applies `f(pixel, label, reflectance, shading) -> (reflectance′, shading′)` to every
-    /// assigned pixel; unassigned pixels keep their layers (the module's rule).
+    /// assigned pixel; unassigned pixels keep their layers (the rule of per-cluster edits).
     pub(crate) fn edit_assigned(
         &self,
+        f: impl FnMut(usize, u32, [f32; 3], f32) -> ([f32; 3], f32),
+    ) -> Decomposition {
+        self.edit_pixels(true, f)
+    }
+
+    /// Applies `f` to every pixel, unassigned ones included (the rule of edits that are a
+    /// fixed function of the pixel's values); `f` sees their label as [`Labels::NONE`].
+    pub(crate) fn edit_all(
+        &self,
+        f: impl FnMut(usize, u32, [f32; 3], f32) -> ([f32; 3], f32),
+    ) -> Decomposition {
+        self.edit_pixels(false, f)
+    }
+
+    fn edit_pixels(
+        &self,
+        assigned_only: bool,
         mut f: impl FnMut(usize, u32, [f32; 3], f32) -> ([f32; 3], f32),
     ) -> Decomposition {
         let mut r = self.reflectance.clone();
         let mut s = self.shading.clone();
         for (i, &l) in self.labels.data.iter().enumerate() {
-            if l == Labels::NONE {
+            if assigned_only && l == Labels::NONE {
                 continue;
             }
             let (r2, s2) = f(i, l, self.reflectance.rgb(i), self.shading.px(i)[0]);
@@ -162,8 +188,8 @@ impl ClusterMeans {
                 self.sums.resize(k + 1, [0.0; 3]);
             }
             let p = frame.reflectance.rgb(i);
-            for c in 0..3 {
-                self.sums[k][c] += p[c] as f64;
+            for (sum, v) in self.sums[k].iter_mut().zip(p) {
+                *sum += v as f64;
             }
             self.counts[k] += 1;
         }
@@ -267,124 +293,5 @@ impl ClusterSet {
         (0..self.0.len() as u32)
             .filter(|&k| self.0[k as usize])
             .collect()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::fixture::{BG, FG, sequence};
-    use super::*;
-
-    #[test]
-    fn frame_checks_sizes_and_channels() {
-        let seq = sequence(false);
-        let f = &seq[0];
-        assert!(Frame::new(&f.reflectance, &f.shading, &f.labels).is_ok());
-        assert!(Frame::new(&f.shading, &f.shading, &f.labels).is_err());
-        assert!(Frame::new(&f.reflectance, &f.reflectance, &f.labels).is_err());
-        let small = Labels {
-            width: 4,
-            height: 4,
-            data: vec![0; 16],
-            count: 1,
-        };
-        assert!(matches!(
-            Frame::new(&f.reflectance, &f.shading, &small),
-            Err(Error::ShapeMismatch { .. })
-        ));
-    }
-
-    #[test]
-    fn cluster_means_cover_every_frame_and_skip_unassigned() {
-        let seq = sequence(true);
-        let frames: Vec<Frame> = seq.iter().map(|f| f.frame()).collect();
-        let t = ClusterMeans::from_frames(&frames);
-        // Cluster 2 appears after frame 0 only; the table still knows it.
-        assert_eq!(t.ids().collect::<Vec<_>>(), vec![0, 1, 2]);
-        let assigned: u64 = seq
-            .iter()
-            .map(|f| f.labels.data.iter().filter(|&&l| l != Labels::NONE).count() as u64)
-            .sum();
-        assert_eq!(t.count(0) + t.count(1) + t.count(2), assigned);
-        for c in 0..3 {
-            assert!((t.mean(FG).unwrap()[c] - super::fixture::FG_COLOUR[c]).abs() < 1e-6);
-            assert!((t.mean(BG).unwrap()[c] - super::fixture::BG_COLOUR[c]).abs() < 1e-6);
-        }
-        assert_eq!(t.mean(7), None);
-        assert_eq!(t.nearest(2, &[FG, BG]), Some(BG));
-    }
-}
-
-/// Temporal stability of every edit: on a sequence whose reflectance is constant per cluster,
-/// the edited reflectance is constant per cluster, with the same value in every frame.
-#[cfg(test)]
-mod stability {
-    use super::fixture::{FG, rect, sequence};
-    use super::*;
-    use crate::edit::{Curve, StyliseParams};
-
-    fn assert_constant_per_cluster(name: &str, edited: &[(Decomposition, &Labels)]) {
-        let mut value: Vec<Option<[f32; 3]>> = Vec::new();
-        for (t, (d, labels)) in edited.iter().enumerate() {
-            for (i, &l) in labels.data.iter().enumerate() {
-                if l == Labels::NONE {
-                    continue;
-                }
-                if value.len() <= l as usize {
-                    value.resize(l as usize + 1, None);
-                }
-                let r = d.reflectance.rgb(i);
-                match value[l as usize] {
-                    None => value[l as usize] = Some(r),
-                    Some(v) => assert_eq!(v, r, "{name}: cluster {l}, frame {t}, pixel {i}"),
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn every_edit_keeps_constant_clusters_constant() {
-        let seq = sequence(true);
-        let frames: Vec<Frame> = seq.iter().map(|f| f.frame()).collect();
-        let table = ClusterMeans::from_frames(&frames);
-        let first = &frames[0];
-        let run = |name: &str, f: &dyn Fn(&Frame) -> Decomposition| {
-            let edited: Vec<(Decomposition, &Labels)> =
-                frames.iter().map(|fr| (f(fr), fr.labels)).collect();
-            assert_constant_per_cluster(name, &edited);
-        };
-        let rc = recolour::ClusterRecolour::from_scribbles(
-            first.labels,
-            &table,
-            &[recolour::Scribble {
-                mask: rect(3, 5, 5, 6),
-                target: [0.1, 0.6, 0.2],
-            }],
-        )
-        .unwrap();
-        assert_eq!(rc.clusters(), vec![FG]);
-        run("recolour", &|f| rc.apply(f));
-        let src = Image::from_fn(8, 8, |x, y| [x as f32 / 8.0, y as f32 / 8.0, 0.3]);
-        let tr = transfer::ColourTransfer::fit(first, &src).unwrap();
-        run("transfer", &|f| tr.apply(f));
-        let st = stylise::VideoStylise::fit(first, &StyliseParams::default()).unwrap();
-        run("stylise", &|f| st.apply(f));
-        let curve = Curve::new(&[(0.0, 0.1), (0.6, 0.4), (1.0, 1.0)]).unwrap();
-        let me = material::MaterialEdit::fit(first, curve, None).unwrap();
-        run("material", &|f| me.apply(f));
-        // The segmentation of a constant sequence is a function of the label alone.
-        let seg = segment::StrokeSegmentation::from_strokes(
-            first.labels,
-            &table,
-            &rect(3, 5, 5, 6),
-            &rect(0, 2, 0, 2),
-        )
-        .unwrap();
-        for f in &frames {
-            let m = seg.mask(f.labels);
-            for (i, &l) in f.labels.data.iter().enumerate() {
-                assert_eq!(m.at(i), l == FG);
-            }
-        }
     }
 }

@@ -11,8 +11,9 @@
 //!
 //! The edge layer darkens the shading (`S′ = flattened S × (1 − edge_strength)` on edges), so
 //! `R′` is the saturated reflectance alone and a cluster of constant reflectance stays
-//! constant. Unassigned pixels are unedited and never draw an edge; a boundary with an
-//! unassigned pixel is not an edge either (it comes and goes with the method's confidence).
+//! constant. Saturation and flattening are fixed functions of a pixel's values, so unassigned
+//! pixels get them too; they never draw an edge, and a boundary with an unassigned pixel is
+//! not an edge either (it comes and goes with the method's confidence).
 
 use crate::decomposition::{Decomposition, Labels};
 use crate::edit::{StyliseParams, saturate};
@@ -59,11 +60,11 @@ impl VideoStylise {
         self.mean_shading
     }
 
-    /// The edited layers of one frame.
+    /// The edited layers of one frame (every pixel; edges only on cluster boundaries).
     pub fn apply(&self, frame: &Frame) -> Decomposition {
         let edges = edges(frame.labels);
         let p = &self.params;
-        frame.edit_assigned(|i, _, r, s| {
+        frame.edit_all(|i, _, r, s| {
             let edge = if edges.at(i) {
                 1.0 - p.edge_strength
             } else {
@@ -133,10 +134,12 @@ mod tests {
             let e = edges(&f.labels);
             for (i, &l) in f.labels.data.iter().enumerate() {
                 let s = out.shading.px(i)[0];
-                match (l, e.at(i)) {
-                    (Labels::NONE, _) => assert_eq!(s, f.shading.px(i)[0]),
-                    (_, true) => assert!((s - 0.5 * mean0).abs() < 1e-6),
-                    (_, false) => assert!((s - mean0).abs() < 1e-6),
+                // Unassigned pixels are flattened too, but never on an edge.
+                assert!(l != Labels::NONE || !e.at(i));
+                if e.at(i) {
+                    assert!((s - 0.5 * mean0).abs() < 1e-6);
+                } else {
+                    assert!((s - mean0).abs() < 1e-6);
                 }
                 if l == FG || l == BG {
                     // Saturation 1: the reflectance is kept (up to the HSV round trip).

@@ -11,8 +11,9 @@
 //! Where the reference has a run of equal quantiles (a flat cluster holds much of the mass at
 //! one value), the run's knots collapse into one whose output is the mean of the run's source
 //! quantiles: the value maps to the average colour the source gives that share of pixels.
-//! Values outside frame 0's range map to the ends of the source range. Unassigned pixels are
-//! unedited, as by every video edit.
+//! Values outside frame 0's range map to the ends of the source range. The mapping is fitted on
+//! assigned pixels only but, being one fixed function of the value, maps unassigned pixels
+//! too (the module's rule for such edits).
 
 use crate::decomposition::{Decomposition, Labels};
 use crate::error::{Error, Result};
@@ -129,9 +130,10 @@ impl ColourTransfer {
         [0, 1, 2].map(|c| self.luts[c].eval(p[c]))
     }
 
-    /// The edited layers of one frame: mapped reflectance, the shading unchanged.
+    /// The edited layers of one frame: mapped reflectance (every pixel, unassigned ones
+    /// included), the shading unchanged.
     pub fn apply(&self, frame: &Frame) -> Decomposition {
-        frame.edit_assigned(|_, _, r, s| (self.map(r), s))
+        frame.edit_all(|_, _, r, s| (self.map(r), s))
     }
 }
 
@@ -192,11 +194,11 @@ mod tests {
             for (i, &l) in f.labels.data.iter().enumerate() {
                 let r = f.reflectance.rgb(i);
                 let o = out.reflectance.rgb(i);
+                // Unassigned pixels too: the mapping needs no cluster.
+                assert_eq!(o, t.map(r));
                 if l == Labels::NONE {
-                    assert_eq!(r, o);
                     continue;
                 }
-                assert_eq!(o, t.map(r));
                 if let Some(prev) = seen.insert(r.map(f32::to_bits), o) {
                     assert_eq!(prev, o);
                     repeats += 1;
