@@ -51,22 +51,26 @@ fn load(dir: &str) -> Result<Vec<Object>, Box<dyn std::error::Error>> {
 fn grid() -> Vec<(String, ClusteringParams)> {
     let base = ClusteringParams::default();
     let mut out = Vec::new();
-    for k in [5, 10, 20] {
-        for bridge_ratio in [0.0, 0.6, 0.8, 1.0] {
-            for border_skip in [0, 1, 2, 3] {
-                for border_weight_exponent in [0.0, 0.5] {
-                    out.push((
-                        format!(
-                            "k={k} bridge={bridge_ratio} skip={border_skip} w^{border_weight_exponent}"
-                        ),
-                        ClusteringParams {
-                            k,
-                            bridge_ratio,
-                            border_skip,
-                            border_weight_exponent,
-                            ..base.clone()
-                        },
-                    ));
+    for chromaticity_features in [false, true] {
+        for k in [10, 20, 30, 45] {
+            for lambda_fraction in [0.2, 0.5, 0.8] {
+                for robust_iterations in [0, 2] {
+                    for border_window in [3, 6] {
+                        out.push((
+                            format!(
+                                "chroma={chromaticity_features} k={k} lambda={lambda_fraction} \
+                                 irls={robust_iterations} window={border_window}"
+                            ),
+                            ClusteringParams {
+                                chromaticity_features,
+                                k,
+                                lambda_fraction,
+                                robust_iterations,
+                                border_window,
+                                ..base.clone()
+                            },
+                        ));
+                    }
                 }
             }
         }
@@ -75,12 +79,19 @@ fn grid() -> Vec<(String, ClusteringParams)> {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = std::env::args()
-        .nth(1)
-        .ok_or("usage: mit_cv DIR (an MIT-style folder: one folder per object)")?;
-    let objects = load(&dir)?;
+    let dirs: Vec<String> = std::env::args().skip(1).collect();
+    if dirs.is_empty() {
+        return Err("usage: mit_cv DIR... (MIT-style folders: one folder per object)".into());
+    }
+    let mut objects = Vec::new();
+    let mut set_of = Vec::new();
+    for (d, dir) in dirs.iter().enumerate() {
+        let objs = load(dir)?;
+        set_of.extend(std::iter::repeat_n(d, objs.len()));
+        objects.extend(objs);
+    }
     if objects.len() < 3 {
-        return Err(format!("{dir}: need at least 3 objects, found {}", objects.len()).into());
+        return Err(format!("need at least 3 objects, found {}", objects.len()).into());
     }
     let settings = grid();
     let defaults = ClusteringParams::default();
@@ -115,12 +126,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "object", "defaults", "held-out"
     );
     let (mut sum_cv, mut sum_in) = (0.0, 0.0);
+    let mut per_set = vec![(0.0, 0.0, 0usize); dirs.len()];
     for held in 0..n {
         let best = (0..settings.len())
             .min_by(|&a, &b| mean_without(a, held).total_cmp(&mean_without(b, held)))
             .unwrap_or(0);
         sum_cv += scores[best][held];
         sum_in += default_scores[held];
+        let set = &mut per_set[set_of[held]];
+        set.0 += default_scores[held];
+        set.1 += scores[best][held];
+        set.2 += 1;
         println!(
             "{:<10} {:>10.5} {:>10.5}  {}",
             objects[held].0, default_scores[held], scores[best][held], settings[best].0
@@ -137,6 +153,37 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         sum_in / n as f64,
         sum_cv / n as f64
     );
+    for (dir, (i, cv, c)) in dirs.iter().zip(&per_set) {
+        let c = (*c).max(1) as f64;
+        println!(
+            "{:<10} {:>10.5} {:>10.5}  ({dir})",
+            "set mean",
+            i / c,
+            cv / c
+        );
+    }
+    let mut ranked: Vec<usize> = (0..settings.len()).collect();
+    ranked.sort_by(|&a, &b| {
+        let m = |s: usize| scores[s].iter().sum::<f64>();
+        m(a).total_cmp(&m(b))
+    });
+    for &s in ranked.iter().take(8) {
+        let per: Vec<String> = (0..dirs.len())
+            .map(|d| {
+                let v: Vec<f64> = (0..n)
+                    .filter(|&o| set_of[o] == d)
+                    .map(|o| scores[s][o])
+                    .collect();
+                format!("{:.5}", v.iter().sum::<f64>() / v.len().max(1) as f64)
+            })
+            .collect();
+        println!(
+            "in-sample {:.5} per set [{}]  {}",
+            scores[s].iter().sum::<f64>() / n as f64,
+            per.join(" "),
+            settings[s].0
+        );
+    }
     println!(
         "best setting in-sample: {} mean {:.5}",
         settings[best_in].0,

@@ -69,6 +69,46 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 },
             ),
         ],
+        Some("robust") => {
+            let mut v = vec![("default".to_string(), base.clone())];
+            for cauchy in [false, true] {
+                for delta in [0.02f32, 0.05, 0.1, 0.2, 0.4] {
+                    for it in [3usize, 10] {
+                        v.push((
+                            format!("{} d={delta} it={it}", if cauchy { "cau" } else { "l1" }),
+                            ClusteringParams {
+                                robust_iterations: it,
+                                robust_delta: delta,
+                                robust_cauchy: cauchy,
+                                ..base.clone()
+                            },
+                        ));
+                    }
+                }
+            }
+            v
+        }
+        Some("chroma") => {
+            let mut v = Vec::new();
+            for chromaticity_features in [false, true] {
+                for k in [20usize, 30] {
+                    for lambda_fraction in [0.2f32, 0.5] {
+                        v.push((
+                            format!(
+                                "chroma={chromaticity_features} k={k} lambda={lambda_fraction}"
+                            ),
+                            ClusteringParams {
+                                chromaticity_features,
+                                k,
+                                lambda_fraction,
+                                ..base.clone()
+                            },
+                        ));
+                    }
+                }
+            }
+            v
+        }
         // Defaults under five k-means seeds: the spread shows how much of a difference between
         // settings is initialisation noise.
         _ => (0..5)

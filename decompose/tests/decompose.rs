@@ -116,9 +116,11 @@ fn lambertian_scene_is_recovered() {
         &g.mask,
     )
     .unwrap();
-    // Measured 0.0207: the sphere splits into three segments (Lab a, b scale with lightness)
-    // and its steep shading gradient is only approximately bridged by the border equations.
-    assert!(s.lmse < 0.025, "{s:?}");
+    // Measured 0.0385 with the cross-validated defaults (0.0207 with the thesis' k = 10, Lab
+    // features and one plain solve): on this small noisy scene the chromaticity features at
+    // k = 30 cut the paints into ~300 clusters (Lab: 34), a known cost of the defaults that
+    // won on the MIT and rendered development sets (docs/intrinsic-clustering.md).
+    assert!(s.lmse < 0.042, "{s:?}");
     assert!(out.info.clusters >= 7, "{:?}", out.info);
     assert!(out.info.solver.converged && out.info.solver.residual < 1e-6);
     // All methods run on the scene and beat the trivial "everything is shading" answer.
@@ -405,7 +407,16 @@ mod cli {
         let input = write_scene(dir.path());
         let out = dir.path().join("o");
         let st = bin()
-            .args(["image", "-q", "--linear-output", "--out-dir"])
+            // Retinex: the clustering method's robust solve leaves the white paint exactly
+            // flat, so its brightest 0.5% has nothing above the PNG's range to show.
+            .args([
+                "image",
+                "-q",
+                "--method",
+                "retinex",
+                "--linear-output",
+                "--out-dir",
+            ])
             .arg(&out)
             .arg(&input)
             .status()

@@ -24,8 +24,17 @@
 //! 5. Shading `S = f_i·Y`, a 5×5 median at cluster borders, `R = I / S`.
 //!
 //! Deliberate deviations, all documented on the parameters:
+//! - Defaults chosen by leave-one-object-out cross-validation over the MIT development objects
+//!   and the rendered tuning scenes (issue 19; figures in `docs/intrinsic-clustering.md`):
+//!   the chroma of step 1 is the chromaticity of the linear RGB rather than Lab (a, b), which
+//!   shrink with lightness and so split a cast shadow from the lit part of the same paint;
+//!   `k` = 30, `λ` = 0.5, no merge by `D`.
 //! - The system is solved through sparse normal equations and Cholesky ([`crate::solver`])
-//!   instead of Jacobi-preconditioned QMR; the result is the same least-squares solution.
+//!   instead of Jacobi-preconditioned QMR, and robustly: two further passes of iteratively
+//!   reweighted least squares with an L1 loss ([`ClusteringParams::robust_iterations`]) let the
+//!   consistent equations outvote a continuity equation across a crease or shadow edge. The
+//!   three per-channel equations of eq. 2.7 share their left-hand side and are solved as one
+//!   (exactly the same least-squares problem).
 //! - The gauge equation is applied per connected group of clusters (the paper's single
 //!   equation leaves the system singular when the clusters form several groups, e.g. objects
 //!   separated by a mask), by subtracting the group mean after the solve; this is exactly the
@@ -76,7 +85,7 @@ use regions::{PixelData, components8, graph, merge_similar, merge_small, merge_t
 pub struct EquationCounts {
     /// Shading continuity at borders (eq. 2.5).
     pub boundary: usize,
-    /// Same-segment reflectance equalities, one per channel (eq. 2.7).
+    /// Same-segment reflectance equalities (eq. 2.7; the three channels as one equation).
     pub reflectance: usize,
     /// Gauge equations, one per connected group of clusters (eq. 2.8).
     pub regularisation: usize,
@@ -151,7 +160,28 @@ pub fn features(input: &Image, mask: &Mask, params: &ClusteringParams) -> Vec<[f
         .into_par_iter()
         .map(|i| linear_to_lab(input.rgb(i)))
         .collect();
-    feature_from_lab(&lab, mask, params)
+    let rgb: Vec<[f32; 3]> = (0..input.len()).map(|i| input.rgb(i)).collect();
+    feature_from_lab(&chroma_source(&lab, &rgb, params), mask, params)
+}
+
+/// The Lab triples the features are taken from: Lab itself, or with `chromaticity_features`
+/// its (a, b) replaced by the chromaticity of the linear RGB, which a change of illumination
+/// intensity (a cast shadow) leaves unchanged while Lab's a, b shrink with lightness.
+fn chroma_source(lab: &[[f32; 3]], rgb: &[[f32; 3]], params: &ClusteringParams) -> Vec<[f32; 3]> {
+    if !params.chromaticity_features {
+        return lab.to_vec();
+    }
+    lab.iter()
+        .zip(rgb)
+        .map(|(l, c)| {
+            let s = (c[0] + c[1] + c[2]).max(1e-6);
+            [
+                l[0],
+                100.0 * (c[0] - c[1]) / s,
+                100.0 * (c[0] + c[1] - 2.0 * c[2]) / (3f32.sqrt() * s),
+            ]
+        })
+        .collect()
 }
 
 fn feature_from_lab(lab: &[[f32; 3]], mask: &Mask, params: &ClusteringParams) -> Vec<[f32; 3]> {
@@ -204,7 +234,7 @@ pub fn decompose(
     let lab: Vec<[f32; 3]> = rgb.par_iter().map(|&p| linear_to_lab(p)).collect();
     let y: Vec<f32> = rgb.iter().map(|&p| luminance(p).max(0.0)).collect();
     let ab: Vec<[f32; 2]> = lab.iter().map(|p| [p[1], p[2]]).collect();
-    let feats = feature_from_lab(&lab, &mask, params);
+    let feats = feature_from_lab(&chroma_source(&lab, &rgb, params), &mask, params);
     drop(lab);
     info.timings.features_ms = ms(t);
 
@@ -218,6 +248,7 @@ pub fn decompose(
         &KMeansParams {
             k: params.k,
             seed: params.seed,
+            restarts: params.kmeans_restarts.max(1),
             ..Default::default()
         },
     )?;
@@ -321,7 +352,7 @@ pub fn decompose(
         fraction: 0.6,
     });
     let t = Instant::now();
-    let (mut x, sinfo) = sys.solve(&params.solver)?;
+    let (mut x, sinfo) = solve_robust(&sys, params)?;
     zero_mean_per_component(&mut x, &comps);
     info.solver = sinfo;
     info.timings.solve_ms = ms(t);
@@ -361,6 +392,26 @@ pub fn decompose(
             count: k,
         },
         info,
+    })
+}
+
+/// Solves the cluster system by iteratively reweighted least squares (not in the thesis,
+/// which solves it once): after every solve each equation's weight is scaled by
+/// `δ / max(|residual|, δ)` (an L1 loss; Cauchy `1 / (1 + (r/δ)²)` with `robust_cauchy`), so
+/// that an equation that contradicts the others — a continuity equation across a crease or a
+/// shadow edge, a reflectance equation between two different paints — stops pulling the
+/// clusters around it once the consistent equations agree.
+fn solve_robust(
+    sys: &crate::solver::LinearSystem,
+    params: &ClusteringParams,
+) -> Result<(Vec<f64>, SolverInfo)> {
+    let delta = params.robust_delta as f64;
+    sys.solve_irls(&params.solver, params.robust_iterations, |r| {
+        if params.robust_cauchy {
+            1.0 / (1.0 + (r / delta).powi(2))
+        } else {
+            delta / r.abs().max(delta)
+        }
     })
 }
 

@@ -224,11 +224,15 @@ pub(super) fn build(
                 if regions[b].mean_y() - regions[a].mean_y() >= t_l {
                     break;
                 }
-                for ch in 0..3 {
-                    let rhs = rho(a, ch).ln() - rho(b, ch).ln();
-                    if sys.add(&[(a, 1.0), (b, -1.0)], rhs, 1.0) {
-                        counts.reflectance += 1;
-                    }
+                // The paper's three equations, one per channel, share their left-hand side
+                // `x_a − x_b`: in least squares they are exactly one equation with the mean
+                // right-hand side and three times the weight (a third of the rows to solve).
+                let rhs = (0..3)
+                    .map(|ch| rho(a, ch).ln() - rho(b, ch).ln())
+                    .sum::<f64>()
+                    / 3.0;
+                if sys.add(&[(a, 1.0), (b, -1.0)], rhs, 3.0) {
+                    counts.reflectance += 1;
                 }
             }
         }

@@ -62,15 +62,31 @@ pub(crate) fn run_bench(a: BenchArgs) -> Result<()> {
         [p[0], p[1], p[2]]
     });
     let cases = [
-        ("coffee 640x480", coffee.resize(640, 480), 10usize, 0.3),
-        ("astronaut 1024x1024", astronaut.resize(1024, 1024), 30, 2.0),
-        ("mosaic 1024x1024", mosaic, 30, 2.0),
+        // (name, image, k, k of the thesis-era defaults, target)
+        ("coffee 640x480", coffee.resize(640, 480), 10, 10usize, 0.3),
+        (
+            "astronaut 1024x1024",
+            astronaut.resize(1024, 1024),
+            30,
+            30,
+            2.0,
+        ),
+        ("mosaic 1024x1024", mosaic, 30, 30, 2.0),
     ];
     out(&format!(
-        "{:<22} {:>4} {:>9} {:>9} {:>10} {:>10} {:>8} {:>11}\n",
-        "case", "k", "clusters", "eqs", "best (s)", "target (s)", "ratio", "peak RSS MiB"
+        "{:<22} {:>4} {:>9} {:>9} {:>10} {:>10} {:>8} {:>11} {:>13} {:>10}\n",
+        "case",
+        "k",
+        "clusters",
+        "eqs",
+        "best (s)",
+        "target (s)",
+        "ratio",
+        "peak RSS MiB",
+        "previous (s)",
+        "ours/prev"
     ))?;
-    for (name, img, k, target) in cases {
+    for (name, img, k, previous_k, target) in cases {
         let params = ClusteringParams {
             k,
             ..Default::default()
@@ -85,10 +101,27 @@ pub(crate) fn run_bench(a: BenchArgs) -> Result<()> {
             best = best.min(t.elapsed().as_secs_f64());
             info = Some(out.info);
         }
+        let peak = peak_rss_mib().unwrap_or(f64::NAN);
+        // The same case with the defaults before issue 19's changes (Lab chroma, λ = 0.2,
+        // k = 10 at the default size, merges at D = 0.01, one plain least-squares solve).
+        let plain = ClusteringParams {
+            k: previous_k,
+            chromaticity_features: false,
+            lambda_fraction: 0.2,
+            robust_iterations: 0,
+            merge_threshold: 0.01,
+            ..params.clone()
+        };
+        let mut best_plain = f64::INFINITY;
+        for _ in 0..a.repeat.max(1) {
+            let t = Instant::now();
+            clustering::decompose(&img, None, &plain, &mut |_| {})?;
+            best_plain = best_plain.min(t.elapsed().as_secs_f64());
+        }
         let info = info.unwrap_or_default();
         let eqs = info.equations.boundary + info.equations.reflectance;
         out(&format!(
-            "{:<22} {:>4} {:>9} {:>9} {:>10.3} {:>10.1} {:>8.2} {:>11.0}\n",
+            "{:<22} {:>4} {:>9} {:>9} {:>10.3} {:>10.1} {:>8.2} {:>11.0} {:>13.3} {:>10.2}\n",
             name,
             k,
             info.clusters,
@@ -96,7 +129,9 @@ pub(crate) fn run_bench(a: BenchArgs) -> Result<()> {
             best,
             target,
             best / target,
-            peak_rss_mib().unwrap_or(f64::NAN)
+            peak,
+            best_plain,
+            best / best_plain
         ))?;
     }
     Ok(())

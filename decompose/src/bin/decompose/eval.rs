@@ -93,7 +93,7 @@ pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
                 method: m,
                 linear: true,
                 mask: None,
-                k: 10,
+                k: decompose::clustering::ClusteringParams::default().k,
                 seed: 0,
                 albedo_strokes: vec![],
                 shading_strokes: vec![],

@@ -44,7 +44,7 @@ pub(crate) struct DecomposeArgs {
     #[arg(long)]
     pub(crate) mask: Option<PathBuf>,
     /// k-means segments k (clustering).
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = decompose::clustering::ClusteringParams::default().k)]
     pub(crate) k: usize,
     /// Random seed (clustering).
     #[arg(long, default_value_t = 0)]

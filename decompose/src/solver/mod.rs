@@ -11,6 +11,7 @@
 
 use faer::Mat;
 use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{SparseColMat, Triplet};
 
 use crate::error::{Error, Result};
@@ -168,6 +169,23 @@ impl LinearSystem {
         (0..self.unknowns).map(|i| find(&mut parent, i)).collect()
     }
 
+    /// The residual `aᵀx − b` of every equation, in the order they were added.
+    pub fn residuals(&self, x: &[f64]) -> Vec<f64> {
+        (0..self.equations())
+            .map(|r| self.row(r).map(|(c, v)| v * x[c]).sum::<f64>() - self.rhs[r])
+            .collect()
+    }
+
+    /// The same equations with every weight multiplied by `factors[r]` (one per equation;
+    /// iteratively reweighted least squares).
+    pub fn reweighted(&self, factors: &[f64]) -> Self {
+        let mut out = self.clone();
+        for (w, f) in out.weight.iter_mut().zip(factors) {
+            *w *= f;
+        }
+        out
+    }
+
     /// The weighted residual Σ w (aᵀx − b)².
     pub fn objective(&self, x: &[f64]) -> f64 {
         (0..self.equations())
@@ -181,6 +199,45 @@ impl LinearSystem {
     /// Solves the weighted least-squares problem (see the module docs).
     pub fn solve(&self, params: &SolverParams) -> Result<(Vec<f64>, SolverInfo)> {
         params.validate()?;
+        self.solve_with(params, None).map(|(x, info, _)| (x, info))
+    }
+
+    /// Iteratively reweighted least squares: after a first [`LinearSystem::solve`], each of
+    /// `iterations` passes multiplies every equation's original weight by
+    /// `factor(residual)` (residual of the previous pass) and solves again. The weights change
+    /// but not the sparsity of the normal matrix, so its symbolic Cholesky factorisation
+    /// (ordering and elimination tree) is computed once and reused by every pass.
+    pub fn solve_irls(
+        &self,
+        params: &SolverParams,
+        iterations: usize,
+        factor: impl Fn(f64) -> f64,
+    ) -> Result<(Vec<f64>, SolverInfo)> {
+        params.validate()?;
+        let (mut x, mut info, symbolic) = self.solve_with(params, None)?;
+        for _ in 0..iterations {
+            let factors: Vec<f64> = self.residuals(&x).into_iter().map(&factor).collect();
+            if factors.iter().any(|f| !(f.is_finite() && *f > 0.0)) {
+                return Err(Error::param(
+                    "irls factor",
+                    "non-positive or non-finite",
+                    "must be finite and > 0 for every residual",
+                ));
+            }
+            (x, info, _) = self
+                .reweighted(&factors)
+                .solve_with(params, symbolic.as_ref())?;
+        }
+        Ok((x, info))
+    }
+
+    /// The solve behind [`LinearSystem::solve`]; reuses `symbolic` when given (it must come
+    /// from a system with the same equations) and returns the one it used.
+    fn solve_with(
+        &self,
+        params: &SolverParams,
+        symbolic: Option<&SymbolicLlt<usize>>,
+    ) -> Result<(Vec<f64>, SolverInfo, Option<SymbolicLlt<usize>>)> {
         let n = self.unknowns;
         let mut info = SolverInfo {
             unknowns: n,
@@ -189,7 +246,7 @@ impl LinearSystem {
         };
         if n == 0 {
             info.converged = true;
-            return Ok((Vec::new(), info));
+            return Ok((Vec::new(), info, None));
         }
         // Lower triangle of AᵀWA as (col, row, value) keys, merged after sorting.
         let mut entries: Vec<(u64, f64)> = Vec::with_capacity(self.cols.len() * 2);
@@ -248,8 +305,12 @@ impl LinearSystem {
         let mat = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets)
             .map_err(|e| fail(format!("{e:?}")))?;
         drop(triplets);
-        let llt = mat
-            .sp_cholesky(faer::Side::Lower)
+        let symbolic = match symbolic {
+            Some(s) => s.clone(),
+            None => SymbolicLlt::try_new(mat.symbolic(), faer::Side::Lower)
+                .map_err(|e| fail(format!("{e:?}")))?,
+        };
+        let llt = Llt::try_new_with_symbolic(symbolic.clone(), mat.as_ref(), faer::Side::Lower)
             .map_err(|e| fail(format!("{e:?}")))?;
 
         let b = Mat::<f64>::from_fn(n, 1, |i, _| atb[i]);
@@ -300,7 +361,7 @@ impl LinearSystem {
             });
         }
         info.objective = self.objective(&xs);
-        Ok((xs, info))
+        Ok((xs, info, Some(symbolic)))
     }
 }
 
@@ -319,95 +380,4 @@ pub fn zero_mean_per_component(x: &mut [f64], components: &[usize]) {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use faer::linalg::solvers::SolveLstsq;
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
-
-    /// Dense reference: QR least squares of [√W A; √(εD) I] x = [√W b; 0].
-    fn dense_reference(sys: &LinearSystem, eps_rel: f64) -> Vec<f64> {
-        let n = sys.unknowns();
-        let m = sys.equations();
-        let mut a = Mat::<f64>::zeros(m + n, n);
-        let mut b = Mat::<f64>::zeros(m + n, 1);
-        for r in 0..m {
-            let sw = sys.weight[r].sqrt();
-            for (c, v) in sys.row(r) {
-                a[(r, c)] += sw * v;
-            }
-            b[(r, 0)] = sw * sys.rhs[r];
-        }
-        let diag: Vec<f64> = (0..n)
-            .map(|c| (0..m).map(|r| a[(r, c)] * a[(r, c)]).sum())
-            .collect();
-        let eps = eps_rel * diag.iter().sum::<f64>() / n as f64;
-        for i in 0..n {
-            a[(m + i, i)] = eps.sqrt();
-        }
-        let x = a.qr().solve_lstsq(&b);
-        (0..n).map(|i| x[(i, 0)]).collect()
-    }
-
-    #[test]
-    fn sparse_equals_dense_least_squares() {
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
-        for trial in 0..20 {
-            let n = rng.random_range(2..40);
-            let m = rng.random_range(n..4 * n);
-            let mut sys = LinearSystem::new(n);
-            for _ in 0..m {
-                let k = rng.random_range(1..4);
-                let terms: Vec<(usize, f64)> = (0..k)
-                    .map(|_| (rng.random_range(0..n), rng.random_range(-2.0..2.0)))
-                    .collect();
-                sys.add(
-                    &terms,
-                    rng.random_range(-1.0..1.0),
-                    rng.random_range(0.1..10.0),
-                );
-            }
-            // Anchor every unknown so the dense problem is well posed too.
-            for i in 0..n {
-                sys.add(&[(i, 1.0)], rng.random_range(-1.0..1.0), 0.5);
-            }
-            let params = SolverParams {
-                damping: 1e-6,
-                ..Default::default()
-            };
-            let (x, info) = sys.solve(&params).unwrap();
-            let reference = dense_reference(&sys, 1e-6);
-            for (a, b) in x.iter().zip(&reference) {
-                assert!((a - b).abs() < 1e-7, "trial {trial}: {a} vs {b}");
-            }
-            assert!(info.converged && info.residual < 1e-9, "{info:?}");
-        }
-    }
-
-    #[test]
-    fn free_gauge_is_fixed_per_component() {
-        // x0 - x1 = 1, x2 - x3 = 2: two groups, each with a free constant.
-        let mut sys = LinearSystem::new(4);
-        sys.add(&[(0, 1.0), (1, -1.0)], 1.0, 1.0);
-        sys.add(&[(2, 1.0), (3, -1.0)], 2.0, 1.0);
-        let (mut x, _) = sys.solve(&SolverParams::default()).unwrap();
-        let comps = sys.components();
-        assert_eq!(comps, vec![0, 0, 2, 2]);
-        zero_mean_per_component(&mut x, &comps);
-        let expect = [0.5, -0.5, 1.0, -1.0];
-        for (a, b) in x.iter().zip(expect) {
-            assert!((a - b).abs() < 1e-6, "{x:?}");
-        }
-    }
-
-    #[test]
-    fn bad_equations_are_skipped() {
-        let mut sys = LinearSystem::new(2);
-        assert!(!sys.add(&[(0, f64::NAN)], 1.0, 1.0));
-        assert!(!sys.add(&[(5, 1.0)], 1.0, 1.0));
-        assert!(!sys.add(&[(0, 1.0)], f64::INFINITY, 1.0));
-        assert!(sys.add(&[(0, 1.0)], 2.0, 1.0));
-        let (x, _) = sys.solve(&SolverParams::default()).unwrap();
-        assert!((x[0] - 2.0).abs() < 1e-6 && x[1] == 0.0);
-    }
-}
+mod tests;
