@@ -21,9 +21,15 @@
 //! - [`truth`]: the evaluation's ground truth, a sequence folder with `input/`,
 //!   `reflectance/`, `shading/` frames and the exact flow as Middlebury `.flo` files
 //!   (rendered by `scripts/render_video.py`, described in `docs/video-data.md`), read lazily.
+//! - [`score`]: the evaluation's figures, per-frame LMSE and temporal flicker (the mean
+//!   absolute change of log grey reflectance along the flow);
+//! - [`baseline`]: the per-frame methods the evaluation compares against (Zhao et al. Retinex
+//!   and the clustering method of ch. 2 on every frame alone).
 
+pub mod baseline;
 pub mod flow;
 pub mod frames;
 pub mod propagate;
+pub mod score;
 pub mod segment;
 pub mod truth;
