@@ -86,17 +86,18 @@ pub struct PerFrameStats {
     pub total_ms: f64,
 }
 
-/// Decomposes every frame of `source` on its own with `method` and hands each result to
-/// `each`, in order. Errors: the source's [`Error::Frame`] for an unreadable frame, a method's
+/// Decomposes the first `count` frames of `source` (every frame when `count` is larger) each
+/// on its own with `method` and hands each result to `each`, in order. Errors: the source's [`Error::Frame`] for an unreadable frame, a method's
 /// error wrapped in [`Error::Frame`] naming the frame, and whatever `each` returns.
 pub fn per_frame(
     source: &FrameSource,
+    count: usize,
     method: &PerFrameMethod,
     each: &mut dyn FnMut(PerFrameResult<'_>) -> Result<()>,
     progress: ProgressFn,
 ) -> Result<PerFrameStats> {
     let t0 = Instant::now();
-    let n = source.len();
+    let n = source.len().min(count);
     let mut stats = PerFrameStats {
         method: method.name(),
         ..Default::default()
@@ -162,6 +163,7 @@ mod tests {
             let mut seen = Vec::new();
             let stats = per_frame(
                 &source,
+                usize::MAX,
                 &method,
                 &mut |r| {
                     let frame = source.frame(r.index)?;

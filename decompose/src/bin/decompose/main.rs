@@ -4,8 +4,10 @@
 
 mod bench;
 mod common;
+mod contact_sheet;
 mod edit;
 mod eval;
+mod eval_video;
 mod image_cmd;
 mod lightfield;
 mod lightfield_edit;
@@ -18,6 +20,7 @@ use clap::{Parser, Subcommand};
 use bench::{BenchArgs, run_bench};
 use edit::{EditCommand, run_edit};
 use eval::{EvalArgs, run_eval};
+use eval_video::{EvalVideoArgs, run_eval_video};
 use image_cmd::{ImageArgs, run_image};
 use lightfield::{LightFieldArgs, run_lightfield};
 use lightfield_edit::{LightFieldEdit, run_edit_lightfield};
@@ -49,6 +52,9 @@ enum Command {
     EvalLightfield(EvalLightFieldArgs),
     /// Evaluate every method on the MIT intrinsic images (LMSE and scale-invariant MSE).
     Eval(EvalArgs),
+    /// Score the per-frame baselines (and the video method) on rendered sequences with ground
+    /// truth (per-frame LMSE, temporal flicker), or on real footage (flicker, contact sheet).
+    EvalVideo(EvalVideoArgs),
     /// Editing applications on a decomposition.
     #[command(subcommand)]
     Edit(EditCommand),
@@ -74,6 +80,7 @@ fn run() -> Result<()> {
     match cli.command {
         Command::Image(a) => run_image(a),
         Command::Eval(a) => run_eval(a),
+        Command::EvalVideo(a) => run_eval_video(a),
         Command::Lightfield(a) => run_lightfield(a),
         Command::EvalLightfield(a) => run_eval_lightfield(a),
         Command::EditLightfield(e) => run_edit_lightfield(e),
