@@ -20,10 +20,15 @@
 //!   stopping condition (§3.5.3).
 //! - [`truth`]: the evaluation's ground truth, a sequence folder with `input/`,
 //!   `reflectance/`, `shading/` frames and the exact flow as Middlebury `.flo` files
-//!   (rendered by `scripts/render_video.py`, described in `docs/video-data.md`), read lazily.
+//!   (rendered by `scripts/render_video.py`, described in `docs/video-data.md`), read lazily;
+//! - [`method`]: the whole method, [`method::decompose_video`]: the first frame's Retinex and
+//!   clusters, forward propagation with the stopping condition over three passes (`M` = 30,
+//!   20, 10), completion of stopping frames (eqs. 3.8–3.10) with backward propagation, and the
+//!   residual Laplace fill (eq. 3.11), with per-frame state in a scratch folder.
 
 pub mod flow;
 pub mod frames;
+pub mod method;
 pub mod propagate;
 pub mod segment;
 pub mod truth;
