@@ -1,0 +1,201 @@
+//! The passes of Algorithm 1: forward propagation with the stopping condition, completion of
+//! each stopping frame followed by backward propagation of its new clusters, three times with
+//! `M` = 30, 20, 10 (see the module docs of `method` for the reading).
+
+use std::time::Instant;
+
+use crate::error::Result;
+use crate::image::Image;
+use crate::progress::{Progress, ProgressFn};
+use crate::video::flow::{Flow, flow};
+use crate::video::frames::FrameSource;
+use crate::video::propagate::{ClusterTables, PropagateParams, propagate, should_stop};
+
+use super::complete::complete_frame;
+use super::first::FIRST_FRAME_SHARE;
+use super::state::{FrameState, PixelSource, Scratch};
+use super::{FrameStats, VideoParams};
+
+/// Everything a run keeps in memory besides the two or three frames being worked on: the
+/// tables, per-frame counters (a few numbers each) and the list of stopping frames.
+pub(crate) struct Run<'a> {
+    pub source: &'a FrameSource,
+    pub params: &'a VideoParams,
+    pub scratch: Scratch,
+    pub tables: ClusterTables,
+    pub stats: Vec<FrameStats>,
+    pub stopping: Vec<usize>,
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+impl Run<'_> {
+    fn dims(&self) -> (u32, u32) {
+        self.source.size()
+    }
+
+    /// The propagation parameters of pass `pass` (0, 1, 2), with the ablation applied.
+    fn pass_params(&self, pass: usize) -> PropagateParams {
+        let mut p = self.params.propagate.clone();
+        p.m = PropagateParams::PASS_WINDOWS[pass];
+        if self.params.ablation.no_confidence_threshold {
+            // Every MAP cluster is taken: ε as small as validation allows, β = 1.
+            p.epsilon = f64::MIN_POSITIVE;
+            p.beta = 1.0;
+        }
+        p
+    }
+
+    /// The flow from frame `from` to frame `to` (= from ± 1), cached in the scratch folder; the
+    /// zero flow under the `no_optical_flow` ablation. Time goes to frame `to`.
+    fn flow(&mut self, from: usize, to: usize, a: &Image, b: &Image) -> Result<Flow> {
+        let (w, h) = self.dims();
+        if self.params.ablation.no_optical_flow {
+            return Ok(Flow::zeros(w, h));
+        }
+        let (t, forward) = if to > from { (from, true) } else { (to, false) };
+        if let Some(f) = self.scratch.load_flow(t, forward, (w, h))? {
+            return Ok(f);
+        }
+        let t0 = Instant::now();
+        let f = flow(a, b, &self.params.flow)?;
+        self.scratch.save_flow(t, forward, &f)?;
+        self.stats[to].flow_ms += ms(t0);
+        Ok(f)
+    }
+
+    /// Propagates the clusters of frame `from` (state `prev`, image `prev_img`) into the
+    /// unassigned pixels of frame `to` (`state`, `img`); returns how many were assigned.
+    fn propagate_into(
+        &mut self,
+        from: usize,
+        prev: &FrameState,
+        prev_img: &Image,
+        to: usize,
+        state: &mut FrameState,
+        img: &Image,
+        pp: &PropagateParams,
+    ) -> Result<usize> {
+        if state.unassigned() == 0 {
+            return Ok(0);
+        }
+        let f = self.flow(from, to, prev_img, img)?;
+        let t0 = Instant::now();
+        let labels = prev.labels(self.tables.cluster_count());
+        let prop = propagate(&self.tables, &labels, img, &f, pp)?;
+        let floor = (img.max() * crate::decomposition::SHADING_FLOOR).max(f32::MIN_POSITIVE);
+        let mut added = 0;
+        for i in 0..state.len() {
+            let l = prop.labels.data[i];
+            if state.source[i] != PixelSource::Unassigned || l == crate::Labels::NONE {
+                continue;
+            }
+            // Grey shading fitting I ≈ R̂ S in least squares; R = I / S keeps R × S = I.
+            let (rh, px) = (prop.reflectance.rgb(i), img.rgb(i));
+            let num: f32 = (0..3).map(|c| px[c] * rh[c]).sum();
+            let den: f32 = rh.iter().map(|v| v * v).sum();
+            let s = if den > 0.0 { num / den } else { 0.0 };
+            state.shading[i] = if s.is_finite() { s.max(floor) } else { floor };
+            state.labels[i] = l;
+            state.source[i] = PixelSource::Propagation;
+            added += 1;
+        }
+        self.stats[to].propagate_ms += ms(t0);
+        Ok(added)
+    }
+
+    /// One forward pass (`pass` = 0, 1, 2): frames 1..n in order; see the module docs.
+    pub fn forward_pass(&mut self, pass: usize, progress: ProgressFn) -> Result<()> {
+        let n = self.source.len();
+        let dims = self.dims();
+        let pp = self.pass_params(pass);
+        let mut prev_img = self.source.frame(0)?;
+        let mut prev = self.scratch.load_state(0, dims)?;
+        let mut last_stop = 0;
+        for t in 1..n {
+            let img = self.source.frame(t)?;
+            let mut state = self.scratch.load_state(t, dims)?;
+            let fresh = !self.scratch.has_state(t);
+            if state.unassigned() > 0 {
+                self.propagate_into(t - 1, &prev, &prev_img, t, &mut state, &img, &pp)?;
+                let stop = if self.params.ablation.complete_every_frame {
+                    state.unassigned() > 0
+                } else {
+                    should_stop(&state.assigned_mask(), pp.m, pp.alpha)?
+                };
+                if stop {
+                    let t0 = Instant::now();
+                    complete_frame(&img, &mut state, &mut self.tables, self.params)?;
+                    self.stats[t].complete_ms += ms(t0);
+                    self.stats[t].completion_passes += 1;
+                    self.stopping.push(t);
+                    self.scratch.save_state(t, &state)?;
+                    self.backward_from(t, last_stop, &img, &state, &pp)?;
+                    last_stop = t;
+                } else {
+                    self.scratch.save_state(t, &state)?;
+                }
+            } else if fresh {
+                self.scratch.save_state(t, &state)?;
+            }
+            progress(Progress {
+                stage: PASS_STAGES[pass],
+                fraction: pass_fraction(pass, t as f32 / (n - 1).max(1) as f32),
+            });
+            prev = state;
+            prev_img = img;
+        }
+        Ok(())
+    }
+
+    /// Backward propagation after the completion of stopping frame `ts` (§3.6): the clusters
+    /// of `ts` are carried to `ts − 1`, `ts − 2`, … into their unassigned pixels, down to the
+    /// frame after the previous stopping frame `stop_at` of this pass, and no further than a
+    /// frame that gains no pixel.
+    fn backward_from(
+        &mut self,
+        ts: usize,
+        stop_at: usize,
+        img: &Image,
+        state: &FrameState,
+        pp: &PropagateParams,
+    ) -> Result<()> {
+        let dims = self.dims();
+        let mut next_img = img.clone();
+        let mut next = state.clone();
+        for t in (stop_at + 1..ts).rev() {
+            let mut cur = self.scratch.load_state(t, dims)?;
+            if cur.unassigned() == 0 {
+                break;
+            }
+            let cur_img = self.source.frame(t)?;
+            let added = self.propagate_into(t + 1, &next, &next_img, t, &mut cur, &cur_img, pp)?;
+            if added == 0 {
+                break;
+            }
+            self.scratch.save_state(t, &cur)?;
+            next = cur;
+            next_img = cur_img;
+        }
+        Ok(())
+    }
+}
+
+const PASS_STAGES: [&str; 3] = ["pass 1 (M = 30)", "pass 2 (M = 20)", "pass 3 (M = 10)"];
+
+/// Share of the progress bar after `done` of pass `pass`; the passes share what the first
+/// frame and the output leave, the first pass (which computes the flows) half of it.
+pub(crate) fn pass_fraction(pass: usize, done: f32) -> f32 {
+    let span = 1.0 - FIRST_FRAME_SHARE - OUTPUT_SHARE;
+    let (start, width) = match pass {
+        0 => (0.0, 0.5),
+        1 => (0.5, 0.25),
+        _ => (0.75, 0.25),
+    };
+    FIRST_FRAME_SHARE + span * (start + width * done)
+}
+
+/// The share of the progress bar given to the residual fill and the output.
+pub(crate) const OUTPUT_SHARE: f32 = 0.1;
