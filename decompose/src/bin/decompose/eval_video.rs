@@ -10,9 +10,11 @@ use clap::{Args, ValueEnum};
 
 use decompose::Image;
 use decompose::io::LoadOptions;
+use decompose::retinex::Strokes;
 use decompose::video::baseline::{PerFrameMethod, per_frame};
 use decompose::video::flow::{self, Flow, TvL1FlowParams};
 use decompose::video::frames::{FrameOptions, FrameSource};
+use decompose::video::method::{Ablation, VideoFrame, VideoParams, decompose_video};
 use decompose::video::score::{SequenceScorer, SequenceScores};
 use decompose::video::truth::{VideoTruth, load_truth, read_flo, write_flo};
 
@@ -21,6 +23,8 @@ use crate::contact_sheet::ContactSheet;
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug, PartialOrd, Ord)]
 pub(crate) enum VideoMethod {
+    /// The intrinsic-video method (thesis ch. 3, `decompose video`).
+    Ours,
     /// Zhao et al. Retinex on every frame alone.
     Retinex,
     /// The clustering method (thesis ch. 2) on every frame alone.
@@ -32,62 +36,118 @@ pub(crate) enum VideoMethod {
 /// One method as it is run: the match in [`run_method`] is the one place that knows how.
 #[derive(Clone, Debug)]
 enum Runner {
+    /// The video method with these parameters, under this name.
+    Ours(&'static str, Box<VideoParams>),
     PerFrame(PerFrameMethod),
 }
 
 impl Runner {
     fn name(&self) -> String {
         match self {
+            Runner::Ours(name, _) => (*name).to_string(),
             Runner::PerFrame(m) => format!("per-frame {}", m.name()),
         }
     }
 }
 
-fn runners(methods: &[VideoMethod]) -> Vec<Runner> {
+/// The runs asked for: the methods in a fixed order, then with `ablations` the three
+/// ablations of Fig. 3.11.
+fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
     let mut wanted: Vec<VideoMethod> = if methods.is_empty() || methods.contains(&VideoMethod::All)
     {
-        vec![VideoMethod::Retinex, VideoMethod::Clustering]
+        vec![
+            VideoMethod::Ours,
+            VideoMethod::Retinex,
+            VideoMethod::Clustering,
+        ]
     } else {
         methods.to_vec()
     };
     wanted.sort();
     wanted.dedup();
-    wanted
+    let mut runs: Vec<Runner> = wanted
         .into_iter()
         .filter_map(|m| match m {
+            VideoMethod::Ours => Some(Runner::Ours("ours", Box::default())),
             VideoMethod::Retinex => Some(Runner::PerFrame(PerFrameMethod::retinex())),
             VideoMethod::Clustering => Some(Runner::PerFrame(PerFrameMethod::clustering())),
             VideoMethod::All => None,
         })
-        .collect()
+        .collect();
+    if ablations {
+        let with = |ablation: Ablation| {
+            Box::new(VideoParams {
+                ablation,
+                ..Default::default()
+            })
+        };
+        runs.extend([
+            Runner::Ours(
+                "ours, completion every frame",
+                with(Ablation {
+                    complete_every_frame: true,
+                    ..Default::default()
+                }),
+            ),
+            Runner::Ours(
+                "ours, no confidence test",
+                with(Ablation {
+                    no_confidence_threshold: true,
+                    ..Default::default()
+                }),
+            ),
+            Runner::Ours(
+                "ours, no optical flow",
+                with(Ablation {
+                    no_optical_flow: true,
+                    ..Default::default()
+                }),
+            ),
+        ]);
+    }
+    runs
 }
 
-/// Runs one method on the first `count` frames, handing every frame's (reflectance, shading)
+/// Runs one method on every frame of `source`, handing every frame's (reflectance, shading)
 /// to `each` in order; returns the method's own time in milliseconds (scoring excluded).
 fn run_method(
     runner: &Runner,
     source: &FrameSource,
-    count: usize,
     each: &mut dyn FnMut(usize, &Image, &Image) -> Result<()>,
 ) -> Result<f64> {
     // `each` errors are anyhow; the library's callbacks want decompose::Error, so they are
     // parked here and re-raised after the run.
     let mut failure: Option<anyhow::Error> = None;
+    let mut park = |index: usize, e: anyhow::Error| {
+        failure = Some(e);
+        decompose::Error::InvalidParam {
+            name: "frame",
+            value: index.to_string(),
+            reason: "could not be scored",
+        }
+    };
     let result = match runner {
+        Runner::Ours(_, params) => {
+            let scratch = TempDir::new(&std::env::temp_dir(), "decompose-eval-video-")?;
+            decompose_video(
+                source,
+                &Strokes::default(),
+                params,
+                scratch.path(),
+                &mut |f: VideoFrame<'_>| {
+                    each(f.index, f.reflectance, f.shading).map_err(|e| park(f.index, e))
+                },
+                &mut |_| {},
+            )
+            .map(|s| s.total_ms)
+        }
         Runner::PerFrame(m) => per_frame(
             source,
-            count,
+            usize::MAX,
             m,
             &mut |r| {
                 let d = r.decomposition;
-                each(r.index, &d.reflectance, &d.shading).map_err(|e| {
-                    failure = Some(e);
-                    decompose::Error::InvalidParam {
-                        name: "frame",
-                        value: r.index.to_string(),
-                        reason: "could not be scored",
-                    }
-                })
+                each(r.index, &d.reflectance, &d.shading).map_err(|e| park(r.index, e))
             },
             &mut |_| {},
         )
@@ -112,6 +172,10 @@ pub(crate) struct EvalVideoArgs {
     /// Methods to run (default: all).
     #[arg(long = "method", value_enum, value_delimiter = ',')]
     methods: Vec<VideoMethod>,
+    /// Also the three ablations of the video method (thesis Fig. 3.11): completion on every
+    /// frame, no confidence threshold, no optical flow.
+    #[arg(long)]
+    ablations: bool,
     /// Write every figure (with the per-frame LMSE curves) as JSON.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -236,7 +300,7 @@ fn sheet_path(base: &Path, sequence: &str, several: bool) -> PathBuf {
 }
 
 pub(crate) fn run_eval_video(a: EvalVideoArgs) -> Result<()> {
-    let runners = runners(&a.methods);
+    let runners = runners(&a.methods, a.ablations);
     let count = a.frames.unwrap_or(usize::MAX);
     if count == 0 {
         bail!("--frames must be at least 1");
@@ -262,7 +326,16 @@ pub(crate) fn run_eval_video(a: EvalVideoArgs) -> Result<()> {
             .contact_sheet
             .clone()
             .unwrap_or_else(|| PathBuf::from("contact-sheet.png"));
-        let r = evaluate(&a, &name, &source, None, &flows, &runners, Some(sheet))?;
+        let r = evaluate(
+            &a,
+            &name,
+            opts.load,
+            &source,
+            None,
+            &flows,
+            &runners,
+            Some(sheet),
+        )?;
         report.insert(name, r);
     } else if let Some(root) = &a.truth {
         let seqs = sequences(root)?;
@@ -282,9 +355,14 @@ pub(crate) fn run_eval_video(a: EvalVideoArgs) -> Result<()> {
                 .contact_sheet
                 .as_ref()
                 .map(|p| sheet_path(p, &name, seqs.len() > 1));
+            let linear = LoadOptions {
+                linear: true,
+                ..Default::default()
+            };
             let r = evaluate(
                 &a,
                 &name,
+                linear,
                 truth.input_frames(),
                 Some(&truth),
                 &flows,
@@ -302,7 +380,7 @@ pub(crate) fn run_eval_video(a: EvalVideoArgs) -> Result<()> {
                     .collect();
                 let k = rows.len().max(1) as f64;
                 table += &format!(
-                    "{:<26} {:>10.5} {:>10.5} {:>10.3}\n",
+                    "{:<30} {:>10.5} {:>10.5} {:>10.3}\n",
                     r.name(),
                     rows.iter().map(|r| r.scores.lmse).sum::<f64>() / k,
                     rows.iter().map(|r| r.scores.flicker).sum::<f64>() / k,
@@ -319,10 +397,38 @@ pub(crate) fn run_eval_video(a: EvalVideoArgs) -> Result<()> {
     Ok(())
 }
 
+/// The first `n` frames of `source` as a source of their own: a scratch folder of symbolic
+/// links to their files (every method, the video method included, then sees only them).
+fn first_frames(
+    source: &FrameSource,
+    n: usize,
+    load: LoadOptions,
+) -> Result<(TempDir, FrameSource)> {
+    let dir = TempDir::new(&std::env::temp_dir(), "decompose-eval-frames-")?;
+    for i in 0..n {
+        let from = std::fs::canonicalize(source.path(i))
+            .with_context(|| format!("reading {}", source.path(i).display()))?;
+        let name = from
+            .file_name()
+            .map(|n| n.to_os_string())
+            .unwrap_or_default();
+        std::os::unix::fs::symlink(&from, dir.path().join(name))
+            .with_context(|| format!("linking {}", from.display()))?;
+    }
+    let opts = FrameOptions {
+        load,
+        ..Default::default()
+    };
+    let subset = FrameSource::open(dir.path(), &opts)?;
+    Ok((dir, subset))
+}
+
 /// Runs every method on one sequence, prints its table, writes its contact sheet.
+#[allow(clippy::too_many_arguments)]
 fn evaluate(
     a: &EvalVideoArgs,
     name: &str,
+    load: LoadOptions,
     source: &FrameSource,
     truth: Option<&VideoTruth>,
     flows: &Flows<'_>,
@@ -364,13 +470,19 @@ fn evaluate(
             }
         }
     }
+    let subset = if n < source.len() {
+        Some(first_frames(source, n, load)?)
+    } else {
+        None
+    };
+    let frames = subset.as_ref().map_or(source, |(_, s)| s);
     let pb = bar(a.quiet);
     pb.set_length((n * runners.len()) as u64);
     for runner in runners {
         let label = runner.name();
         pb.set_message(format!("{name}: {label}"));
         let mut scorer = SequenceScorer::new();
-        let ms = run_method(runner, source, n, &mut |i, r, s| {
+        let ms = run_method(runner, frames, &mut |i, r, s| {
             let t = match truth {
                 Some(t) => Some((t.reflectance(i)?, t.shading(i)?)),
                 None => None,
@@ -402,7 +514,7 @@ fn evaluate(
     }
     pb.finish_and_clear();
     let mut table = format!(
-        "\n{name}: {n} frames of {w}x{h}, flicker along the {}\n{:<26} {:>10} {:>10} {:>10}\n",
+        "\n{name}: {n} frames of {w}x{h}, flicker along the {}\n{:<30} {:>10} {:>10} {:>10}\n",
         flows.describe(),
         "method",
         "mean LMSE",
@@ -417,7 +529,7 @@ fn evaluate(
             format!("{:>10}", "-")
         };
         let spf = spf.map_or_else(|| format!("{:>10}", "-"), |v| format!("{v:>10.3}"));
-        table += &format!("{label:<26} {lmse} {:>10.5} {spf}\n", s.flicker);
+        table += &format!("{label:<30} {lmse} {:>10.5} {spf}\n", s.flicker);
     }
     let contact_sheet = match sheet_file {
         Some(file) => {
