@@ -27,12 +27,14 @@
 //!   residual Laplace fill (eq. 3.11), with per-frame state in a scratch folder.
 //! - [`score`]: the evaluation's figures, per-frame LMSE and temporal flicker (the mean
 //!   absolute change of log grey reflectance along the flow);
+//! - [`labels_io`]: cluster ids as lossless 16-bit PNG files (`decompose video`'s `labels/`);
 //! - [`baseline`]: the per-frame methods the evaluation compares against (Zhao et al. Retinex
 //!   and the clustering method of ch. 2 on every frame alone).
 
 pub mod baseline;
 pub mod flow;
 pub mod frames;
+pub mod labels_io;
 pub mod method;
 pub mod propagate;
 pub mod score;

@@ -12,6 +12,7 @@ mod image_cmd;
 mod lightfield;
 mod lightfield_edit;
 mod lightfield_eval;
+mod video;
 mod whdr;
 
 use anyhow::Result;
@@ -25,6 +26,7 @@ use image_cmd::{ImageArgs, run_image};
 use lightfield::{LightFieldArgs, run_lightfield};
 use lightfield_edit::{LightFieldEdit, run_edit_lightfield};
 use lightfield_eval::{EvalLightFieldArgs, run_eval_lightfield};
+use video::{VideoArgs, run_video};
 use whdr::{WhdrArgs, run_whdr};
 
 #[derive(Parser)]
@@ -41,6 +43,9 @@ struct Cli {
 enum Command {
     /// Decompose one image and write reflectance, shading, cluster map, scatter plot, stats.
     Image(ImageArgs),
+    /// Decompose a video (folder of frames or video file) coherently over time: reflectance,
+    /// shading, clusters and labels per frame, stats, optionally MP4s.
+    Video(VideoArgs),
     /// Decompose a light field (HCI folder or --grid of views) coherently across its views.
     Lightfield(LightFieldArgs),
     /// Edit every view of a light field coherently (recolour from one region, relight with one
@@ -81,6 +86,7 @@ fn run() -> Result<()> {
         Command::Image(a) => run_image(a),
         Command::Eval(a) => run_eval(a),
         Command::EvalVideo(a) => run_eval_video(a),
+        Command::Video(a) => run_video(a),
         Command::Lightfield(a) => run_lightfield(a),
         Command::EvalLightfield(a) => run_eval_lightfield(a),
         Command::EditLightfield(e) => run_edit_lightfield(e),
