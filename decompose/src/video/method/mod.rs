@@ -368,6 +368,8 @@ fn output(run: &mut passes::Run, sink: &mut dyn FrameSink, progress: ProgressFn)
         fs.assigned_by_propagation = frac(PixelSource::Propagation);
         fs.completed = frac(PixelSource::Completion);
         fs.residual = frac(PixelSource::Residual);
+        // The final state stays in the scratch folder (every pixel assigned).
+        run.scratch.save_state(t, &st)?;
         let reflectance = st.reflectance(&img);
         let shading = Image::from_vec(dims.0, dims.1, 1, std::mem::take(&mut st.shading))?;
         let clusters = st.labels(run.tables.cluster_count());
