@@ -3,6 +3,7 @@
 //! subcommand.
 
 mod bench;
+mod bench_video;
 mod common;
 mod contact_sheet;
 mod edit;
@@ -65,7 +66,8 @@ enum Command {
     Edit(EditCommand),
     /// WHDR of a decomposition against IIW judgements (Bell et al. 2014).
     Whdr(WhdrArgs),
-    /// Time the clustering method at 640x480 (k=10) and 1024x1024 (k=30); print a table.
+    /// Time the clustering method at 640x480 (k=10) and 1024x1024 (k=30), or with --lightfield
+    /// / --video the light-field or video method against per-view / per-frame baselines.
     Bench(BenchArgs),
 }
 

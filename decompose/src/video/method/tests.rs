@@ -61,10 +61,7 @@ fn params() -> VideoParams {
     p
 }
 
-fn run(
-    frames: &[Image],
-    params: &VideoParams,
-) -> (Vec<OwnedFrame>, VideoStats, tempfile::TempDir) {
+fn run(frames: &[Image], params: &VideoParams) -> (Vec<OwnedFrame>, VideoStats, tempfile::TempDir) {
     let dir = tempfile::tempdir().unwrap();
     let src_dir = dir.path().join("frames");
     std::fs::create_dir(&src_dir).unwrap();
@@ -213,13 +210,23 @@ fn completion_equation_matches_a_dense_solve() {
     // 6×4: two albedos (a chroma edge at x = 3) under a ramp; the right column is known.
     let (w, h) = (6usize, 4usize);
     let input = Image::from_fn(w as u32, h as u32, |x, y| {
-        let a = if x < 3 { [0.7, 0.3, 0.2] } else { [0.2, 0.4, 0.7] };
+        let a = if x < 3 {
+            [0.7, 0.3, 0.2]
+        } else {
+            [0.2, 0.4, 0.7]
+        };
         let s = 0.3 + 0.1 * x as f32 + 0.05 * y as f32;
         a.map(|v| v * s)
     });
     let region = Mask::full(w as u32, h as u32);
     let known: Vec<f64> = (0..w * h)
-        .map(|p| if p % w == w - 1 { -0.5 + 0.1 * (p / w) as f64 } else { f64::NAN })
+        .map(|p| {
+            if p % w == w - 1 {
+                -0.5 + 0.1 * (p / w) as f64
+            } else {
+                f64::NAN
+            }
+        })
         .collect();
     let params = RetinexParams::default();
     let lambda_c = 1000.0;
@@ -244,15 +251,22 @@ fn completion_equation_matches_a_dense_solve() {
         }
     };
     for p in 0..n {
-        for q in [(p % w + 1 < w).then_some(p + 1), (p + w < n).then_some(p + w)]
-            .into_iter()
-            .flatten()
+        for q in [
+            (p % w + 1 < w).then_some(p + 1),
+            (p + w < n).then_some(p + w),
+        ]
+        .into_iter()
+        .flatten()
         {
             add(&[(p, 1.0), (q, -1.0)], 0.0, params.lambda_l);
             let (u, v) = (unit(p), unit(q));
             let d2: f64 = (0..3).map(|c| (u[c] - v[c]).powi(2)).sum();
             if d2 < params.t {
-                add(&[(p, 1.0), (q, -1.0)], logy(p) - logy(q), params.lambda_l * params.omega);
+                add(
+                    &[(p, 1.0), (q, -1.0)],
+                    logy(p) - logy(q),
+                    params.lambda_l * params.omega,
+                );
             }
         }
         if known[p].is_finite() {
@@ -261,11 +275,21 @@ fn completion_equation_matches_a_dense_solve() {
     }
     let x = dense_solve(a, b);
     for p in 0..n {
-        assert!((s[p] - x[p]).abs() < 1e-6, "pixel {p}: {} vs {}", s[p], x[p]);
+        assert!(
+            (s[p] - x[p]).abs() < 1e-6,
+            "pixel {p}: {} vs {}",
+            s[p],
+            x[p]
+        );
     }
     // The known column is held (λ_c = 1000 against unit smoothness weights).
     for p in (0..n).filter(|p| known[*p].is_finite()) {
-        assert!((s[p] - known[p]).abs() < 0.01, "pixel {p}: {} vs {}", s[p], known[p]);
+        assert!(
+            (s[p] - known[p]).abs() < 0.01,
+            "pixel {p}: {} vs {}",
+            s[p],
+            known[p]
+        );
     }
 }
 
@@ -280,7 +304,9 @@ fn poisson_blend_holds_the_dirichlet_boundary_exactly() {
         })
         .collect();
     let field = |p: usize| ((p % w) as f64 * 0.37).sin() + ((p / w) as f64 * 0.21).cos();
-    let guidance: Vec<f64> = (0..w * h).map(|p| field(p) + 5.0 + 0.1 * ((p * 7919) % 13) as f64).collect();
+    let guidance: Vec<f64> = (0..w * h)
+        .map(|p| field(p) + 5.0 + 0.1 * ((p * 7919) % 13) as f64)
+        .collect();
     let boundary: Vec<f64> = (0..w * h)
         .map(|p| if hole[p] { f64::NAN } else { field(p) })
         .collect();
@@ -288,7 +314,11 @@ fn poisson_blend_holds_the_dirichlet_boundary_exactly() {
     let s = poisson_blend(w, h, &hole, &guidance, &boundary, &solver).unwrap();
     for p in 0..w * h {
         if !hole[p] {
-            assert_eq!(s[p].to_bits(), boundary[p].to_bits(), "boundary pixel {p} moved");
+            assert_eq!(
+                s[p].to_bits(),
+                boundary[p].to_bits(),
+                "boundary pixel {p} moved"
+            );
         }
     }
     // Inside: the discrete Poisson equation Σ_q (s_p − s_q) = Σ_q (g_p − g_q).
@@ -362,7 +392,11 @@ fn an_object_entering_the_view_is_completed_with_a_new_cluster() {
         .iter()
         .filter(|&&i| last.clusters.data[i] > first)
         .count();
-    assert!(inside as f64 > 0.9 * square.len() as f64, "{inside} of {}", square.len());
+    assert!(
+        inside as f64 > 0.9 * square.len() as f64,
+        "{inside} of {}",
+        square.len()
+    );
     // Little of the video is left to the residual fill.
     for fs in &stats.frames {
         assert!(fs.residual < 0.05, "{fs:?}");
@@ -387,9 +421,15 @@ fn a_long_sequence_keeps_its_state_in_scratch_files() {
         Ok(())
     };
     let scratch = dir.path().join("scratch");
-    let stats =
-        decompose_video(&source, &Strokes::default(), &params(), &scratch, &mut sink, &mut |_| {})
-            .unwrap();
+    let stats = decompose_video(
+        &source,
+        &Strokes::default(),
+        &params(),
+        &scratch,
+        &mut sink,
+        &mut |_| {},
+    )
+    .unwrap();
     assert_eq!(next, n);
     assert_eq!(stats.frames.len(), n);
     let names: Vec<String> = std::fs::read_dir(&scratch)
@@ -412,7 +452,14 @@ fn bad_inputs_are_errors() {
     let source = source_of(dir.path(), &frames);
     let scratch: PathBuf = dir.path().join("scratch");
     let call = |strokes: &Strokes, params: &VideoParams| {
-        decompose_video(&source, strokes, params, &scratch, &mut Vec::new(), &mut |_| {})
+        decompose_video(
+            &source,
+            strokes,
+            params,
+            &scratch,
+            &mut Vec::new(),
+            &mut |_| {},
+        )
     };
     let strokes = Strokes {
         constant_albedo: vec![Mask::full(15, 12)],
@@ -420,12 +467,33 @@ fn bad_inputs_are_errors() {
     };
     assert!(matches!(
         call(&strokes, &VideoParams::default()),
-        Err(Error::ShapeMismatch { expected: (16, 12), got: (15, 12) })
+        Err(Error::ShapeMismatch {
+            expected: (16, 12),
+            got: (15, 12)
+        })
     ));
     for (params, name) in [
-        (VideoParams { lambda_c: 0.0, ..Default::default() }, "lambda_c"),
-        (VideoParams { lambda_c: f64::NAN, ..Default::default() }, "lambda_c"),
-        (VideoParams { completion_margin: 0, ..Default::default() }, "completion_margin"),
+        (
+            VideoParams {
+                lambda_c: 0.0,
+                ..Default::default()
+            },
+            "lambda_c",
+        ),
+        (
+            VideoParams {
+                lambda_c: f64::NAN,
+                ..Default::default()
+            },
+            "lambda_c",
+        ),
+        (
+            VideoParams {
+                completion_margin: 0,
+                ..Default::default()
+            },
+            "completion_margin",
+        ),
     ] {
         match call(&Strokes::default(), &params) {
             Err(Error::InvalidParam { name: got, .. }) => assert_eq!(got, name),
@@ -434,11 +502,24 @@ fn bad_inputs_are_errors() {
     }
     let mut p = VideoParams::default();
     p.propagate.epsilon = 2.0;
-    assert!(matches!(call(&Strokes::default(), &p), Err(Error::InvalidParam { name: "epsilon", .. })));
+    assert!(matches!(
+        call(&Strokes::default(), &p),
+        Err(Error::InvalidParam {
+            name: "epsilon",
+            ..
+        })
+    ));
     // A scratch path that is a file.
     let file = dir.path().join("000000.tiff");
     assert!(matches!(
-        decompose_video(&source, &Strokes::default(), &VideoParams::default(), &file, &mut Vec::new(), &mut |_| {}),
+        decompose_video(
+            &source,
+            &Strokes::default(),
+            &VideoParams::default(),
+            &file,
+            &mut Vec::new(),
+            &mut |_| {}
+        ),
         Err(Error::Io { .. })
     ));
 }
@@ -447,11 +528,23 @@ fn bad_inputs_are_errors() {
 fn ablations_keep_the_invariants() {
     let (frames, _) = translating(5, 24, 16, 1);
     for ablation in [
-        Ablation { complete_every_frame: true, ..Default::default() },
-        Ablation { no_confidence_threshold: true, ..Default::default() },
-        Ablation { no_optical_flow: true, ..Default::default() },
+        Ablation {
+            complete_every_frame: true,
+            ..Default::default()
+        },
+        Ablation {
+            no_confidence_threshold: true,
+            ..Default::default()
+        },
+        Ablation {
+            no_optical_flow: true,
+            ..Default::default()
+        },
     ] {
-        let params = VideoParams { ablation: ablation.clone(), ..params() };
+        let params = VideoParams {
+            ablation: ablation.clone(),
+            ..params()
+        };
         let (out, stats, _dir) = run(&frames, &params);
         assert_product(&frames, &out);
         for fs in &stats.frames {
@@ -459,7 +552,10 @@ fn ablations_keep_the_invariants() {
             assert!((total - 1.0).abs() < 1e-12, "{ablation:?}: {fs:?}");
         }
         if ablation.complete_every_frame {
-            assert!(stats.frames[1..].iter().all(|f| f.residual == 0.0), "{stats:?}");
+            assert!(
+                stats.frames[1..].iter().all(|f| f.residual == 0.0),
+                "{stats:?}"
+            );
         }
     }
 }
