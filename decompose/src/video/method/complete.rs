@@ -53,10 +53,15 @@ pub(crate) fn local_decomposition(
             anchored[u(p)] = true;
         }
     }
-    anchor_free_components(&mut sys, &mut anchored, |k| {
-        let p = g.pixel[k];
-        (g.y[p], g.log_y[p])
-    }, retinex.lambda_a);
+    anchor_free_components(
+        &mut sys,
+        &mut anchored,
+        |k| {
+            let p = g.pixel[k];
+            (g.y[p], g.log_y[p])
+        },
+        retinex.lambda_a,
+    );
     let (x, _) = sys.solve(&retinex.solver)?;
     for (k, &p) in g.pixel.iter().enumerate() {
         out[p] = x[k];
@@ -125,7 +130,11 @@ pub(crate) fn poisson_blend(
             let g = guidance[p] - guidance[q];
             match (hole[p], hole[q]) {
                 (true, true) => {
-                    sys.add(&[(index[p] as usize, 1.0), (index[q] as usize, -1.0)], g, 1.0);
+                    sys.add(
+                        &[(index[p] as usize, 1.0), (index[q] as usize, -1.0)],
+                        g,
+                        1.0,
+                    );
                 }
                 (true, false) => {
                     sys.add(&[(index[p] as usize, 1.0)], g + boundary[q], 1.0);

@@ -160,7 +160,11 @@ impl VideoParams {
         self.flow.validate()?;
         self.propagate.validate()?;
         if !(self.lambda_c.is_finite() && self.lambda_c > 0.0) {
-            return Err(Error::param("lambda_c", self.lambda_c, "must be finite and > 0"));
+            return Err(Error::param(
+                "lambda_c",
+                self.lambda_c,
+                "must be finite and > 0",
+            ));
         }
         if self.completion_margin == 0 {
             return Err(Error::param(

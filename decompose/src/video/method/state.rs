@@ -107,8 +107,7 @@ impl FrameState {
         for i in 0..self.len() {
             if self.source[i] != PixelSource::Unassigned {
                 let s = self.shading[i];
-                r.px_mut(i)
-                    .copy_from_slice(&input.rgb(i).map(|v| v / s));
+                r.px_mut(i).copy_from_slice(&input.rgb(i).map(|v| v / s));
             }
         }
         r
