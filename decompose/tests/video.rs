@@ -318,3 +318,54 @@ fn eval_video_on_footage_without_truth_uses_the_estimated_flow() {
     assert!(m["lmse_frames"].as_array().unwrap().is_empty());
     assert!(sheet.exists());
 }
+
+#[test]
+fn video_flag_encodes_both_layers_when_ffmpeg_is_installed() {
+    let has_ffmpeg = Command::new("ffmpeg")
+        .arg("-version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !has_ffmpeg {
+        eprintln!("skipped: no ffmpeg on PATH");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = decompose(&[
+        os("video"),
+        tiny().join("input").as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+        os("--linear"),
+        os("--video"),
+        os("--fps"),
+        os("10"),
+        os("-q"),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for layer in ["reflectance", "shading"] {
+        let mp4 = out.join(format!("{layer}.mp4"));
+        let probe = Command::new("ffprobe")
+            .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
+            .args([
+                "-show_entries",
+                "stream=codec_name,pix_fmt,nb_read_frames,r_frame_rate",
+            ])
+            .args(["-of", "default=noprint_wrappers=1"])
+            .arg(&mp4)
+            .output();
+        let Ok(probe) = probe else {
+            assert!(std::fs::metadata(&mp4).unwrap().len() > 0);
+            continue;
+        };
+        let text = String::from_utf8_lossy(&probe.stdout);
+        for want in [
+            "codec_name=h264",
+            "pix_fmt=yuv420p",
+            "nb_read_frames=8",
+            "r_frame_rate=10/1",
+        ] {
+            assert!(text.contains(want), "{layer}: {want} not in {text}");
+        }
+    }
+}
