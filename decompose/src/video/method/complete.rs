@@ -8,7 +8,7 @@ use crate::grid::Grid;
 use crate::image::{Image, Mask};
 use crate::retinex::RetinexParams;
 use crate::solver::{LinearSystem, SolverParams};
-use crate::video::propagate::ClusterTables;
+use crate::video::propagate::{ClusterTables, colour8};
 use crate::video::segment::felzenszwalb;
 
 use super::VideoParams;
@@ -98,7 +98,9 @@ fn anchor_free_components(
 /// Eq. 3.9: Poisson blending. On the `hole` pixels, the field `s` whose 4-neighbour
 /// differences are closest in least squares to those of `guidance`, with `s = boundary` held
 /// exactly on every pixel outside the hole (the Dirichlet condition; those values are not
-/// unknowns). `guidance` must be finite on the hole and its 4-neighbours. A connected piece of
+/// unknowns). `guidance` must be finite on the hole and its 4-neighbours. A neighbour outside
+/// the hole whose `boundary` is not finite (a pixel that is not assigned yet) gives no
+/// equation: the hole's edge there is free (Neumann). A connected piece of
 /// the hole that touches no boundary pixel keeps `guidance` up to nothing (its constant is
 /// fixed at one pixel). Returns the whole frame: `boundary` outside the hole, bit for bit.
 pub(crate) fn poisson_blend(
@@ -136,15 +138,15 @@ pub(crate) fn poisson_blend(
                         1.0,
                     );
                 }
-                (true, false) => {
+                (true, false) if boundary[q].is_finite() => {
                     sys.add(&[(index[p] as usize, 1.0)], g + boundary[q], 1.0);
                     anchored[index[p] as usize] = true;
                 }
-                (false, true) => {
+                (false, true) if boundary[p].is_finite() => {
                     sys.add(&[(index[q] as usize, 1.0)], boundary[p] - g, 1.0);
                     anchored[index[q] as usize] = true;
                 }
-                (false, false) => {}
+                _ => {}
             }
         }
     }
@@ -175,19 +177,18 @@ pub(crate) fn dilate(w: usize, h: usize, m: &[bool], r: usize) -> Vec<bool> {
     out
 }
 
-/// Completes every unassigned pixel of a frame (§3.6) and updates the cluster tables; returns
-/// the number of pixels completed.
+/// Completes the unassigned pixels marked in `hole` (§3.6) and updates the cluster tables;
+/// returns the number of pixels completed. Other unassigned pixels are left as they are.
 pub(crate) fn complete_frame(
     input: &Image,
     state: &mut FrameState,
+    hole: &[bool],
     tables: &mut ClusterTables,
     params: &VideoParams,
 ) -> Result<usize> {
     let (w, h) = (state.width as usize, state.height as usize);
-    let hole: Vec<bool> = state
-        .source
-        .iter()
-        .map(|&s| s == PixelSource::Unassigned)
+    let hole: Vec<bool> = (0..w * h)
+        .map(|p| hole[p] && state.source[p] == PixelSource::Unassigned)
         .collect();
     let count = hole.iter().filter(|&&v| v).count();
     if count == 0 {
@@ -197,7 +198,7 @@ pub(crate) fn complete_frame(
     let region = Mask::from_vec(state.width, state.height, region)?;
     let known: Vec<f64> = (0..w * h)
         .map(|p| {
-            if hole[p] {
+            if state.source[p] == PixelSource::Unassigned {
                 f64::NAN
             } else {
                 f64::from(state.shading[p]).ln()
@@ -220,9 +221,8 @@ pub(crate) fn complete_frame(
 
 /// Eq. 3.10, the clustering update: the completed pixels' reflectance is segmented
 /// (Felzenszwalb–Huttenlocher over the hole's bounding box); each segment's completed pixels
-/// join the adjacent existing cluster of nearest mean reflectance when that mean is within the
-/// merge threshold, and become a new cluster otherwise. Then their colours and reflectances
-/// enter the tables `𝓡_k`, `𝓘_k` ([`ClusterTables::update`]).
+/// join an adjacent existing cluster ([`join_cluster`]) or become a new cluster. Then their
+/// colours and reflectances enter the tables `𝓡_k`, `𝓘_k` ([`ClusterTables::update`]).
 fn update_clusters(
     input: &Image,
     state: &mut FrameState,
@@ -276,17 +276,9 @@ fn update_clusters(
         let mean = sum[s].map(|v| v / cnt[s] as f64);
         neighbours[s].sort_unstable();
         neighbours[s].dedup();
-        let nearest = neighbours[s]
-            .iter()
-            .filter_map(|&k| {
-                let m = tables.mean_reflectance(k)?;
-                let d2: f64 = (0..3).map(|c| (f64::from(m[c]) - mean[c]).powi(2)).sum();
-                Some((d2.sqrt(), k))
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        label_of[s] = match nearest {
-            Some((d, k)) if d < params.merge.threshold => k,
-            _ => {
+        label_of[s] = match join_cluster(tables, &neighbours[s], mean, params) {
+            Some(k) => k,
+            None => {
                 next += 1;
                 next - 1
             }
@@ -305,4 +297,49 @@ fn update_clusters(
         count: next as usize,
     };
     tables.update(input, &refl, &fresh)
+}
+
+/// The existing cluster a completed segment of mean reflectance `mean` joins, among the
+/// clusters `adjacent` to it: the one whose reflectance histogram `𝓡_k` holds the largest
+/// fraction of its pixels within the Parzen radius `d` of the segment's quantised mean (eq.
+/// 3.6's window, applied to the reflectance); when no histogram has a pixel there, the one of
+/// nearest mean reflectance if closer than the merge threshold. `None`: a new cluster.
+fn join_cluster(
+    tables: &ClusterTables,
+    adjacent: &[u32],
+    mean: [f64; 3],
+    params: &VideoParams,
+) -> Option<u32> {
+    let q = colour8(mean.map(|v| v as f32)).map(f64::from);
+    let d2 = params.propagate.d * params.propagate.d;
+    let by_histogram = adjacent
+        .iter()
+        .filter_map(|&k| {
+            let hist = tables.reflectance_histogram(k)?;
+            let inside: u64 = hist
+                .iter()
+                .filter(|(v, _)| {
+                    (0..3)
+                        .map(|c| (f64::from(v[c]) - q[c]).powi(2))
+                        .sum::<f64>()
+                        <= d2
+                })
+                .map(|(_, n)| n)
+                .sum();
+            (inside > 0).then(|| (inside as f64 / tables.pixels(k).max(1) as f64, k))
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)));
+    if let Some((_, k)) = by_histogram {
+        return Some(k);
+    }
+    adjacent
+        .iter()
+        .filter_map(|&k| {
+            let m = tables.mean_reflectance(k)?;
+            let d2: f64 = (0..3).map(|c| (f64::from(m[c]) - mean[c]).powi(2)).sum();
+            Some((d2.sqrt(), k))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+        .filter(|&(d, _)| d < params.merge.threshold)
+        .map(|(_, k)| k)
 }

@@ -22,7 +22,14 @@
 //!    take the grey shading that fits `I ≈ R̂ S` in least squares, `S = Σ_c I_c R̂_c / Σ_c R̂_c²`,
 //!    and `R = I / S` (equal to `R̂` when the pixel's chromaticity matches the table's).
 //! 5. **Stopping** (§3.5.3): [`should_stop`] with `α` and `M` = 30, 20, 10 over the passes.
-//! 6. **Completion** (§3.6, module `complete`), at each stopping frame:
+//! 6. **Completion** (§3.6, module `complete`), at each stopping frame. The issue does not
+//!    say which pixels are completed; we complete the unassigned pixels of the `M×M` windows
+//!    that made the stopping condition true (the holes), and leave scattered unassigned
+//!    pixels (typically on the boundary between two clusters of one colour, where the
+//!    posterior is split) to the later passes, backward propagation and the residual fill,
+//!    whose harmonic shading from well-decomposed neighbours suits thin gaps. (Completing
+//!    every unassigned pixel of a stopping frame gave, on the first 6 frames of a rendered
+//!    320×240 sequence with a moving object, 0.0391 mean LMSE and 0.0998 flicker.)
 //!    - eq. 3.8, the issue says "constrained local decomposition with λ_c = 1000"; we read it
 //!      as the local Retinex energy of eq. 3.12 (`λ_l`, `ω`, `T` of [`RetinexParams`]) over the
 //!      unassigned pixels and a band of [`VideoParams::completion_margin`] pixels of assigned
@@ -253,7 +260,8 @@ pub struct FrameStats {
     pub completed: f64,
     /// Fraction from the residual Laplace fill (eq. 3.11). The three fractions sum to 1.
     pub residual: f64,
-    /// How many times the frame was a stopping frame and was completed (0 or 1).
+    /// How many times the frame was a stopping frame and was completed (0 to 3: at most once
+    /// per pass).
     pub completion_passes: u32,
     /// Optical flow computed into this frame, milliseconds.
     pub flow_ms: f64,
@@ -269,7 +277,8 @@ pub struct FrameStats {
 pub struct VideoStats {
     /// One entry per frame, in order.
     pub frames: Vec<FrameStats>,
-    /// The frames completed because propagation stopped there (§3.5.3), in increasing order.
+    /// The frames completed because propagation stopped there (§3.5.3) in any pass, in
+    /// increasing order, each once.
     pub stopping_frames: Vec<usize>,
     /// Steps 1–2 on frame 0, milliseconds.
     pub first_frame_ms: f64,
@@ -344,6 +353,7 @@ pub fn decompose_video(
     output(&mut run, sink, progress)?;
     let mut stopping = std::mem::take(&mut run.stopping);
     stopping.sort_unstable();
+    stopping.dedup();
     Ok(VideoStats {
         clusters: run.tables.cluster_count(),
         frames: run.stats,

@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use crate::error::Result;
 use crate::image::Image;
+use crate::image::Mask;
 use crate::progress::{Progress, ProgressFn};
 use crate::video::flow::{Flow, flow};
 use crate::video::frames::FrameSource;
@@ -130,14 +131,20 @@ impl Run<'_> {
                     img: &prev_img,
                 };
                 self.propagate_into(from, t, &mut state, &img, &pp)?;
-                let stop = if self.params.ablation.complete_every_frame {
-                    state.unassigned() > 0
+                let hole = if self.params.ablation.complete_every_frame {
+                    Some(
+                        state
+                            .source
+                            .iter()
+                            .map(|&s| s == PixelSource::Unassigned)
+                            .collect(),
+                    )
                 } else {
-                    should_stop(&state.assigned_mask(), pp.m, pp.alpha)?
+                    stop_region(&state.assigned_mask(), pp.m, pp.alpha)?
                 };
-                if stop {
+                if let Some(hole) = hole {
                     let t0 = Instant::now();
-                    complete_frame(&img, &mut state, &mut self.tables, self.params)?;
+                    complete_frame(&img, &mut state, &hole, &mut self.tables, self.params)?;
                     self.stats[t].complete_ms += ms(t0);
                     self.stats[t].completion_passes += 1;
                     self.stopping.push(t);
@@ -196,6 +203,53 @@ impl Run<'_> {
         }
         Ok(())
     }
+}
+
+/// The pixels to complete at a stopping frame: the unassigned pixels of every `m×m` window
+/// (inside the frame, clipped to it when the frame is smaller) in which more than the fraction
+/// `alpha` is unassigned, i.e. the windows that make [`should_stop`] true; `None` when there
+/// is no such window.
+pub(crate) fn stop_region(assigned: &Mask, m: u32, alpha: f64) -> Result<Option<Vec<bool>>> {
+    if !should_stop(assigned, m, alpha)? {
+        return Ok(None);
+    }
+    let (w, h) = (assigned.dims().0 as usize, assigned.dims().1 as usize);
+    let (mw, mh) = ((m as usize).min(w), (m as usize).min(h));
+    let data = assigned.data();
+    let integral = |value: &dyn Fn(usize) -> u32| {
+        let stride = w + 1;
+        let mut sat = vec![0u32; stride * (h + 1)];
+        for y in 0..h {
+            let mut row = 0u32;
+            for x in 0..w {
+                row += value(y * w + x);
+                sat[(y + 1) * stride + x + 1] = sat[y * stride + x + 1] + row;
+            }
+        }
+        move |x0: usize, y0: usize, x1: usize, y1: usize| {
+            sat[y1 * stride + x1] + sat[y0 * stride + x0]
+                - sat[y0 * stride + x1]
+                - sat[y1 * stride + x0]
+        }
+    };
+    // Windows by their top-left corner, then every pixel that some triggering window covers.
+    let unassigned = integral(&|i| u32::from(!data[i]));
+    let limit = alpha * (mw * mh) as f64;
+    let mut trigger = vec![false; w * h];
+    for y in 0..=h - mh {
+        for x in 0..=w - mw {
+            trigger[y * w + x] = unassigned(x, y, x + mw, y + mh) as f64 > limit;
+        }
+    }
+    let triggers = integral(&|i| u32::from(trigger[i]));
+    let mut hole = vec![false; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (x0, y0) = ((x + 1).saturating_sub(mw), (y + 1).saturating_sub(mh));
+            hole[y * w + x] = !data[y * w + x] && triggers(x0, y0, x + 1, y + 1) > 0;
+        }
+    }
+    Ok(Some(hole))
 }
 
 const PASS_STAGES: [&str; 3] = ["pass 1 (M = 30)", "pass 2 (M = 20)", "pass 3 (M = 10)"];
