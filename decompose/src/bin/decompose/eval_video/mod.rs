@@ -1,163 +1,26 @@
-//! `decompose eval-video`: the per-frame baselines (and the video method) against rendered
+//! `decompose eval-video`: the per-frame baselines and the video method against rendered
 //! ground truth (`--truth`: per-frame LMSE and flicker along the true flow), or on real footage
 //! (`--real`: flicker along the estimated flow, and a contact sheet).
+
+mod frames;
+mod methods;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use clap::{Args, ValueEnum};
+use clap::Args;
 
-use decompose::Image;
 use decompose::io::LoadOptions;
-use decompose::retinex::Strokes;
-use decompose::video::baseline::{PerFrameMethod, per_frame};
-use decompose::video::flow::{self, Flow, TvL1FlowParams};
 use decompose::video::frames::{FrameOptions, FrameSource};
-use decompose::video::method::{Ablation, VideoFrame, VideoParams, decompose_video};
 use decompose::video::score::{SequenceScorer, SequenceScores};
-use decompose::video::truth::{VideoTruth, load_truth, read_flo, write_flo};
+use decompose::video::truth::{VideoTruth, load_truth};
 
-use crate::common::{TempDir, bar, out};
+use crate::common::{bar, out};
 use crate::contact_sheet::ContactSheet;
-
-#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug, PartialOrd, Ord)]
-pub(crate) enum VideoMethod {
-    /// The intrinsic-video method (thesis ch. 3, `decompose video`).
-    Ours,
-    /// Zhao et al. Retinex on every frame alone.
-    Retinex,
-    /// The clustering method (thesis ch. 2) on every frame alone.
-    Clustering,
-    /// Every method above.
-    All,
-}
-
-/// One method as it is run: the match in [`run_method`] is the one place that knows how.
-#[derive(Clone, Debug)]
-enum Runner {
-    /// The video method with these parameters, under this name.
-    Ours(&'static str, Box<VideoParams>),
-    PerFrame(PerFrameMethod),
-}
-
-impl Runner {
-    fn name(&self) -> String {
-        match self {
-            Runner::Ours(name, _) => (*name).to_string(),
-            Runner::PerFrame(m) => format!("per-frame {}", m.name()),
-        }
-    }
-}
-
-/// The runs asked for: the methods in a fixed order, then with `ablations` the three
-/// ablations of Fig. 3.11.
-fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
-    let mut wanted: Vec<VideoMethod> = if methods.is_empty() || methods.contains(&VideoMethod::All)
-    {
-        vec![
-            VideoMethod::Ours,
-            VideoMethod::Retinex,
-            VideoMethod::Clustering,
-        ]
-    } else {
-        methods.to_vec()
-    };
-    wanted.sort();
-    wanted.dedup();
-    let mut runs: Vec<Runner> = wanted
-        .into_iter()
-        .filter_map(|m| match m {
-            VideoMethod::Ours => Some(Runner::Ours("ours", Box::default())),
-            VideoMethod::Retinex => Some(Runner::PerFrame(PerFrameMethod::retinex())),
-            VideoMethod::Clustering => Some(Runner::PerFrame(PerFrameMethod::clustering())),
-            VideoMethod::All => None,
-        })
-        .collect();
-    if ablations {
-        let with = |ablation: Ablation| {
-            Box::new(VideoParams {
-                ablation,
-                ..Default::default()
-            })
-        };
-        runs.extend([
-            Runner::Ours(
-                "ours, completion every frame",
-                with(Ablation {
-                    complete_every_frame: true,
-                    ..Default::default()
-                }),
-            ),
-            Runner::Ours(
-                "ours, no confidence test",
-                with(Ablation {
-                    no_confidence_threshold: true,
-                    ..Default::default()
-                }),
-            ),
-            Runner::Ours(
-                "ours, no optical flow",
-                with(Ablation {
-                    no_optical_flow: true,
-                    ..Default::default()
-                }),
-            ),
-        ]);
-    }
-    runs
-}
-
-/// Runs one method on every frame of `source`, handing every frame's (reflectance, shading)
-/// to `each` in order; returns the method's own time in milliseconds (scoring excluded).
-fn run_method(
-    runner: &Runner,
-    source: &FrameSource,
-    each: &mut dyn FnMut(usize, &Image, &Image) -> Result<()>,
-) -> Result<f64> {
-    // `each` errors are anyhow; the library's callbacks want decompose::Error, so they are
-    // parked here and re-raised after the run.
-    let mut failure: Option<anyhow::Error> = None;
-    let mut park = |index: usize, e: anyhow::Error| {
-        failure = Some(e);
-        decompose::Error::InvalidParam {
-            name: "frame",
-            value: index.to_string(),
-            reason: "could not be scored",
-        }
-    };
-    let result = match runner {
-        Runner::Ours(_, params) => {
-            let scratch = TempDir::new(&std::env::temp_dir(), "decompose-eval-video-")?;
-            decompose_video(
-                source,
-                &Strokes::default(),
-                params,
-                scratch.path(),
-                &mut |f: VideoFrame<'_>| {
-                    each(f.index, f.reflectance, f.shading).map_err(|e| park(f.index, e))
-                },
-                &mut |_| {},
-            )
-            .map(|s| s.total_ms)
-        }
-        Runner::PerFrame(m) => per_frame(
-            source,
-            usize::MAX,
-            m,
-            &mut |r| {
-                let d = r.decomposition;
-                each(r.index, &d.reflectance, &d.shading).map_err(|e| park(r.index, e))
-            },
-            &mut |_| {},
-        )
-        .map(|s| s.frame_ms.iter().sum::<f64>()),
-    };
-    if let Some(e) = failure {
-        return Err(e);
-    }
-    Ok(result?)
-}
+use frames::{Flows, first_frames};
+use methods::VideoMethod;
+use methods::{Runner, run_method, runners};
 
 #[derive(Args)]
 pub(crate) struct EvalVideoArgs {
@@ -196,49 +59,6 @@ pub(crate) struct EvalVideoArgs {
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
-}
-
-/// The flow between consecutive frames: the truth's, or estimated once (TV-L1 on the input
-/// frames) into a scratch folder of `.flo` files shared by every method.
-enum Flows<'a> {
-    True(&'a VideoTruth),
-    Estimated(TempDir),
-}
-
-impl Flows<'_> {
-    fn estimate(source: &FrameSource, count: usize, quiet: bool) -> Result<Flows<'static>> {
-        let dir = TempDir::new(&std::env::temp_dir(), "decompose-eval-flow-")?;
-        let pb = bar(quiet);
-        pb.set_length(count.saturating_sub(1) as u64);
-        pb.set_message("estimating flow");
-        let params = TvL1FlowParams::default();
-        let mut prev = source.frame(0)?;
-        for i in 1..count {
-            let next = source.frame(i)?;
-            let f = flow::flow(&prev, &next, &params)
-                .with_context(|| format!("estimating the flow from frame {} to {i}", i - 1))?;
-            write_flo(dir.path().join(format!("{:06}.flo", i - 1)), &f)?;
-            prev = next;
-            pb.inc(1);
-        }
-        pb.finish_and_clear();
-        Ok(Flows::Estimated(dir))
-    }
-
-    /// The flow from frame `index` to `index + 1`.
-    fn get(&self, index: usize) -> Result<Flow> {
-        Ok(match self {
-            Flows::True(t) => t.flow(index)?,
-            Flows::Estimated(dir) => read_flo(dir.path().join(format!("{index:06}.flo")))?,
-        })
-    }
-
-    fn describe(&self) -> &'static str {
-        match self {
-            Flows::True(_) => "true flow",
-            Flows::Estimated(_) => "estimated flow (TV-L1)",
-        }
-    }
 }
 
 #[derive(serde::Serialize)]
@@ -395,32 +215,6 @@ pub(crate) fn run_eval_video(a: EvalVideoArgs) -> Result<()> {
             .with_context(|| format!("writing {}", p.display()))?;
     }
     Ok(())
-}
-
-/// The first `n` frames of `source` as a source of their own: a scratch folder of symbolic
-/// links to their files (every method, the video method included, then sees only them).
-fn first_frames(
-    source: &FrameSource,
-    n: usize,
-    load: LoadOptions,
-) -> Result<(TempDir, FrameSource)> {
-    let dir = TempDir::new(&std::env::temp_dir(), "decompose-eval-frames-")?;
-    for i in 0..n {
-        let from = std::fs::canonicalize(source.path(i))
-            .with_context(|| format!("reading {}", source.path(i).display()))?;
-        let name = from
-            .file_name()
-            .map(|n| n.to_os_string())
-            .unwrap_or_default();
-        std::os::unix::fs::symlink(&from, dir.path().join(name))
-            .with_context(|| format!("linking {}", from.display()))?;
-    }
-    let opts = FrameOptions {
-        load,
-        ..Default::default()
-    };
-    let subset = FrameSource::open(dir.path(), &opts)?;
-    Ok((dir, subset))
 }
 
 /// Runs every method on one sequence, prints its table, writes its contact sheet.
