@@ -173,7 +173,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let t1 = Instant::now();
     let (mut base_lmse, mut base) = (0.0, Vec::with_capacity(n));
-    for t in 0..n {
+    for (t, ours_t) in ours_each.iter().enumerate() {
         let img = truth.input(t)?;
         let (d, _) = retinex(
             &img,
@@ -184,10 +184,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         )?;
         let l = score(&d.reflectance, &d.shading, t)?;
         if std::env::var_os("PER_FRAME").is_some() {
-            println!(
-                "  frame {t:2}: LMSE method {:.4}, per-frame Retinex {l:.4}",
-                ours_each[t]
-            );
+            println!("  frame {t:2}: LMSE method {ours_t:.4}, per-frame Retinex {l:.4}");
         }
         base_lmse += l / n as f64;
         base.push(d.reflectance);
