@@ -4,7 +4,7 @@ use super::complete::{local_decomposition, poisson_blend};
 use super::state::{PixelSource, Scratch};
 use super::*;
 use crate::color::luminance;
-use crate::image::Mask;
+use crate::image::{Image, Mask};
 use crate::io::save_float_tiff;
 use crate::video::frames::FrameOptions;
 
