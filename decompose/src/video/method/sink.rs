@@ -29,8 +29,8 @@ pub struct VideoFrame<'a> {
     pub clusters: &'a Labels,
 }
 
-/// Receives the final frames of [`decompose_video`]: called exactly once per frame, in order
-/// 0, 1, …, n − 1, after all the passes.
+/// Receives the final frames of [`super::decompose_video`]: called exactly once per frame, in
+/// order 0, 1, …, n − 1, after all the passes.
 pub trait FrameSink {
     /// Takes one frame; an error stops the run.
     fn frame(&mut self, frame: VideoFrame<'_>) -> Result<()>;
@@ -92,7 +92,7 @@ pub struct FrameStats {
     pub complete_ms: f64,
 }
 
-/// What happened in a [`decompose_video`] run.
+/// What happened in a [`super::decompose_video`] run.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct VideoStats {
     /// One entry per frame, in order.
