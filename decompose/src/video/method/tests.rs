@@ -676,3 +676,51 @@ fn lmse_is_below_per_frame_retinex_on_the_rendered_fixture() {
         "LMSE: ours {ours:.4}, per-frame Retinex {theirs:.4}"
     );
 }
+
+#[test]
+fn the_completed_region_is_the_unassigned_part_of_the_tripping_windows() {
+    use super::passes::stop_region;
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    for trial in 0..30 {
+        let (w, h) = (rng.random_range(3..20usize), rng.random_range(3..16usize));
+        let m = rng.random_range(1..8u32);
+        let alpha = rng.random_range(0.3..0.95);
+        // Assigned everywhere but a few random rectangles.
+        let mut data = vec![true; w * h];
+        for _ in 0..rng.random_range(0..4) {
+            let (x0, y0) = (rng.random_range(0..w), rng.random_range(0..h));
+            let (x1, y1) = (rng.random_range(x0..w), rng.random_range(y0..h));
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    data[y * w + x] = rng.random_bool(0.05);
+                }
+            }
+        }
+        let mask = Mask::from_vec(w as u32, h as u32, data.clone()).unwrap();
+        let got = stop_region(&mask, m, alpha).unwrap();
+        // Brute force: every window inside the frame (clipped to it when smaller).
+        let (mw, mh) = ((m as usize).min(w), (m as usize).min(h));
+        let mut expect = vec![false; w * h];
+        let mut any = false;
+        for y0 in 0..=h - mh {
+            for x0 in 0..=w - mw {
+                let cells = || (y0..y0 + mh).flat_map(|y| (x0..x0 + mw).map(move |x| y * w + x));
+                let unassigned = cells().filter(|&i| !data[i]).count();
+                if unassigned as f64 > alpha * (mw * mh) as f64 {
+                    any = true;
+                    for i in cells().filter(|&i| !data[i]) {
+                        expect[i] = true;
+                    }
+                }
+            }
+        }
+        assert_eq!(got.is_some(), any, "trial {trial}");
+        if let Some(got) = got {
+            assert_eq!(
+                got, expect,
+                "trial {trial}: {w}x{h}, m = {m}, alpha = {alpha}"
+            );
+        }
+    }
+}
