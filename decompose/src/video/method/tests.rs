@@ -724,3 +724,70 @@ fn the_completed_region_is_the_unassigned_part_of_the_tripping_windows() {
         }
     }
 }
+
+#[test]
+fn one_frame_and_progress() {
+    let (frames, _) = translating(1, 16, 12, 1);
+    let (out, stats, _dir) = run(&frames, &params());
+    assert_product(&frames, &out);
+    assert_eq!(stats.frames.len(), 1);
+    assert_eq!(stats.frames[0].completed, 1.0);
+
+    // Progress goes from 0 to 1 without going back.
+    let (frames, _) = translating(4, 16, 12, 1);
+    let dir = tempfile::tempdir().unwrap();
+    let source = source_of(dir.path(), &frames);
+    let mut seen: Vec<f32> = Vec::new();
+    decompose_video(
+        &source,
+        &Strokes::default(),
+        &params(),
+        &dir.path().join("scratch"),
+        &mut Vec::new(),
+        &mut |p| seen.push(p.fraction),
+    )
+    .unwrap();
+    assert!(seen.windows(2).all(|w| w[0] <= w[1]), "{seen:?}");
+    assert!(
+        seen[0] >= 0.0 && (seen.last().unwrap() - 1.0).abs() < 1e-6,
+        "{seen:?}"
+    );
+}
+
+#[test]
+fn first_frame_strokes_reach_the_retinex() {
+    let (frames, _) = translating(2, 24, 16, 1);
+    let dir = tempfile::tempdir().unwrap();
+    let source = source_of(dir.path(), &frames);
+    let region = Mask::from_fn(24, 16, |x, y| x < 12 && y < 8);
+    let strokes = Strokes {
+        constant_shading: vec![region.clone()],
+        ..Default::default()
+    };
+    let mut out: Vec<OwnedFrame> = Vec::new();
+    let scratch = dir.path().join("scratch");
+    decompose_video(
+        &source,
+        &strokes,
+        &params(),
+        &scratch,
+        &mut out,
+        &mut |_| {},
+    )
+    .unwrap();
+    let spread = |out: &[OwnedFrame]| {
+        let (lo, hi) = (0..region.data().len())
+            .filter(|&i| region.at(i))
+            .map(|i| out[0].shading.px(i)[0])
+            .fold((f32::MAX, 0.0f32), |(a, b), v| (a.min(v), b.max(v)));
+        hi / lo - 1.0
+    };
+    let with = spread(&out);
+    // Without the stroke, more of the light's fall-off shows there.
+    let (out, _, _d) = run(&frames, &params());
+    let without = spread(&out);
+    assert!(
+        with < 0.5 * without,
+        "relative spread of the shading under the stroke: {with} with, {without} without"
+    );
+}
