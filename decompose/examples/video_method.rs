@@ -11,15 +11,20 @@
 //! fractions of pixels by source, then the mean LMSE (grey, 20×20 windows) and the flicker
 //! (mean |Δ log luminance| of the reflectance between consecutive frames after warping frame
 //! t + 1 onto frame t by the true flow, on the pixels where it is known) of the method and of
-//! per-frame Retinex, with per-frame Retinex's time. `PER_FRAME=1` also prints every frame's
-//! [`decompose::video::method::FrameStats`]; `SCRATCH=DIR` keeps the scratch folder there.
+//! per-frame Retinex, with per-frame Retinex's time. Given a plain folder of linear frames
+//! instead (no `input/` inside), runs the method alone with a sink that keeps nothing and
+//! prints its time and peak RSS (memory against length). `PER_FRAME=1` also prints every frame's
+//! [`decompose::video::method::FrameStats`]; `SCRATCH=DIR` keeps the scratch folder there;
+//! `MERGE_THRESHOLD=V` sets the segment merge threshold (default 0.1).
 
 use std::time::Instant;
 
 use decompose::color::luminance;
+use decompose::io::LoadOptions;
 use decompose::retinex::{RetinexParams, Strokes, decompose as retinex};
 use decompose::video::flow::warp;
-use decompose::video::method::{OwnedFrame, VideoParams, decompose_video};
+use decompose::video::frames::{FrameOptions, FrameSource};
+use decompose::video::method::{OwnedFrame, VideoFrame, VideoParams, decompose_video};
 use decompose::video::truth::{VideoTruth, known_mask, load_truth};
 use decompose::{Image, Mask};
 
@@ -38,10 +43,49 @@ fn flicker(refl: &[Image], truth: &VideoTruth) -> Result<f64, decompose::Error> 
     Ok(sum / n.max(1) as f64)
 }
 
+/// A folder of frames without ground truth (no `input/` inside): the method alone, frames
+/// read as linear and dropped by the sink as they come, to measure time and peak RSS.
+fn frames_only(dir: &str) -> Result<(), Box<dyn std::error::Error>> {
+    let opts = FrameOptions {
+        load: LoadOptions {
+            linear: true,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let source = FrameSource::open(dir, &opts)?;
+    let scratch = tempfile_dir()?;
+    let t0 = Instant::now();
+    let mut sink = |_: VideoFrame<'_>| Ok(());
+    let stats = decompose_video(
+        &source,
+        &Strokes::default(),
+        &VideoParams::default(),
+        &scratch,
+        &mut sink,
+        &mut |_| {},
+    )?;
+    let wall = t0.elapsed().as_secs_f64();
+    std::fs::remove_dir_all(&scratch)?;
+    let (w, h) = source.size();
+    println!(
+        "{dir}: {} frames of {w}x{h}: {wall:.1} s ({:.3} s/frame), peak RSS {:.0} MiB, {} stopping frames, {} clusters",
+        source.len(),
+        wall / source.len() as f64,
+        decompose::process::peak_rss_mib().unwrap_or(f64::NAN),
+        stats.stopping_frames.len(),
+        stats.clusters,
+    );
+    Ok(())
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let dir = std::env::args()
         .nth(1)
         .ok_or("usage: video_method SEQUENCE_DIR")?;
+    if !std::path::Path::new(&dir).join("input").is_dir() {
+        return frames_only(&dir);
+    }
     let truth = load_truth(&dir)?;
     let (w, h) = truth.size();
     let n = truth.len();
@@ -50,13 +94,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(d) => std::path::PathBuf::from(d),
         None => tempfile_dir()?,
     };
+    let mut params = VideoParams::default();
+    if let Some(v) = std::env::var_os("MERGE_THRESHOLD") {
+        params.merge.threshold = v.to_string_lossy().parse()?;
+    }
     let mut out: Vec<OwnedFrame> = Vec::new();
     let cpu0 = decompose::process::cpu_seconds();
     let t0 = Instant::now();
     let stats = decompose_video(
         truth.input_frames(),
         &Strokes::default(),
-        &VideoParams::default(),
+        &params,
         &scratch,
         &mut out,
         &mut |_| {},
@@ -114,8 +162,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Ok(decompose::metrics::score(r, s, &gr, &gs, &mask)?.lmse)
     };
     let mut ours_lmse = 0.0;
+    let mut ours_each = Vec::with_capacity(n);
     for o in &out {
-        ours_lmse += score(&o.reflectance, &o.shading, o.index)? / n as f64;
+        ours_each.push(score(&o.reflectance, &o.shading, o.index)?);
+        ours_lmse += ours_each[o.index] / n as f64;
     }
     let ours: Vec<Image> = out.into_iter().map(|o| o.reflectance).collect();
     let ours_flicker = flicker(&ours, &truth)?;
@@ -123,7 +173,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let t1 = Instant::now();
     let (mut base_lmse, mut base) = (0.0, Vec::with_capacity(n));
-    for t in 0..n {
+    for (t, ours_t) in ours_each.iter().enumerate() {
         let img = truth.input(t)?;
         let (d, _) = retinex(
             &img,
@@ -132,7 +182,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &RetinexParams::default(),
             &mut |_| {},
         )?;
-        base_lmse += score(&d.reflectance, &d.shading, t)? / n as f64;
+        let l = score(&d.reflectance, &d.shading, t)?;
+        if std::env::var_os("PER_FRAME").is_some() {
+            println!("  frame {t:2}: LMSE method {ours_t:.4}, per-frame Retinex {l:.4}");
+        }
+        base_lmse += l / n as f64;
         base.push(d.reflectance);
     }
     let base_wall = t1.elapsed().as_secs_f64();

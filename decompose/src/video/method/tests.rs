@@ -4,7 +4,7 @@ use super::complete::{local_decomposition, poisson_blend};
 use super::state::{PixelSource, Scratch};
 use super::*;
 use crate::color::luminance;
-use crate::image::Mask;
+use crate::image::{Image, Mask};
 use crate::io::save_float_tiff;
 use crate::video::frames::FrameOptions;
 
@@ -674,5 +674,120 @@ fn lmse_is_below_per_frame_retinex_on_the_rendered_fixture() {
     assert!(
         ours < theirs,
         "LMSE: ours {ours:.4}, per-frame Retinex {theirs:.4}"
+    );
+}
+
+#[test]
+fn the_completed_region_is_the_unassigned_part_of_the_tripping_windows() {
+    use super::passes::stop_region;
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    for trial in 0..30 {
+        let (w, h) = (rng.random_range(3..20usize), rng.random_range(3..16usize));
+        let m = rng.random_range(1..8u32);
+        let alpha = rng.random_range(0.3..0.95);
+        // Assigned everywhere but a few random rectangles.
+        let mut data = vec![true; w * h];
+        for _ in 0..rng.random_range(0..4) {
+            let (x0, y0) = (rng.random_range(0..w), rng.random_range(0..h));
+            let (x1, y1) = (rng.random_range(x0..w), rng.random_range(y0..h));
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    data[y * w + x] = rng.random_bool(0.05);
+                }
+            }
+        }
+        let mask = Mask::from_vec(w as u32, h as u32, data.clone()).unwrap();
+        let got = stop_region(&mask, m, alpha).unwrap();
+        // Brute force: every window inside the frame (clipped to it when smaller).
+        let (mw, mh) = ((m as usize).min(w), (m as usize).min(h));
+        let mut expect = vec![false; w * h];
+        let mut any = false;
+        for y0 in 0..=h - mh {
+            for x0 in 0..=w - mw {
+                let cells = || (y0..y0 + mh).flat_map(|y| (x0..x0 + mw).map(move |x| y * w + x));
+                let unassigned = cells().filter(|&i| !data[i]).count();
+                if unassigned as f64 > alpha * (mw * mh) as f64 {
+                    any = true;
+                    for i in cells().filter(|&i| !data[i]) {
+                        expect[i] = true;
+                    }
+                }
+            }
+        }
+        assert_eq!(got.is_some(), any, "trial {trial}");
+        if let Some(got) = got {
+            assert_eq!(
+                got, expect,
+                "trial {trial}: {w}x{h}, m = {m}, alpha = {alpha}"
+            );
+        }
+    }
+}
+
+#[test]
+fn one_frame_and_progress() {
+    let (frames, _) = translating(1, 16, 12, 1);
+    let (out, stats, _dir) = run(&frames, &params());
+    assert_product(&frames, &out);
+    assert_eq!(stats.frames.len(), 1);
+    assert_eq!(stats.frames[0].completed, 1.0);
+
+    // Progress goes from 0 to 1 without going back.
+    let (frames, _) = translating(4, 16, 12, 1);
+    let dir = tempfile::tempdir().unwrap();
+    let source = source_of(dir.path(), &frames);
+    let mut seen: Vec<f32> = Vec::new();
+    decompose_video(
+        &source,
+        &Strokes::default(),
+        &params(),
+        &dir.path().join("scratch"),
+        &mut Vec::new(),
+        &mut |p| seen.push(p.fraction),
+    )
+    .unwrap();
+    assert!(seen.windows(2).all(|w| w[0] <= w[1]), "{seen:?}");
+    assert!(
+        seen[0] >= 0.0 && (seen.last().unwrap() - 1.0).abs() < 1e-6,
+        "{seen:?}"
+    );
+}
+
+#[test]
+fn first_frame_strokes_reach_the_retinex() {
+    let (frames, _) = translating(2, 24, 16, 1);
+    let dir = tempfile::tempdir().unwrap();
+    let source = source_of(dir.path(), &frames);
+    let region = Mask::from_fn(24, 16, |x, y| x < 12 && y < 8);
+    let strokes = Strokes {
+        constant_shading: vec![region.clone()],
+        ..Default::default()
+    };
+    let mut out: Vec<OwnedFrame> = Vec::new();
+    let scratch = dir.path().join("scratch");
+    decompose_video(
+        &source,
+        &strokes,
+        &params(),
+        &scratch,
+        &mut out,
+        &mut |_| {},
+    )
+    .unwrap();
+    let spread = |out: &[OwnedFrame]| {
+        let (lo, hi) = (0..region.data().len())
+            .filter(|&i| region.at(i))
+            .map(|i| out[0].shading.px(i)[0])
+            .fold((f32::MAX, 0.0f32), |(a, b), v| (a.min(v), b.max(v)));
+        hi / lo - 1.0
+    };
+    let with = spread(&out);
+    // Without the stroke, more of the light's fall-off shows there.
+    let (out, _, _d) = run(&frames, &params());
+    let without = spread(&out);
+    assert!(
+        with < 0.5 * without,
+        "relative spread of the shading under the stroke: {with} with, {without} without"
     );
 }
