@@ -263,7 +263,7 @@ fn bad_folders_are_clear_errors_and_leave_no_output() {
         Depth::Eight,
     )
     .unwrap();
-    assert_refused(&dir, "not a 16-bit grey PNG");
+    assert_refused(&dir, "a label file is a 16-bit grey PNG");
 
     let (_t, dir) = fresh();
     std::fs::write(dir.join("stats.json"), "{ not json").unwrap();

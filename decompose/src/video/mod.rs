@@ -23,11 +23,24 @@
 //!   the cluster labels;
 //! - [`truth`]: the evaluation's ground truth, a sequence folder with `input/`,
 //!   `reflectance/`, `shading/` frames and the exact flow as Middlebury `.flo` files
-//!   (rendered by `scripts/render_video.py`, described in `docs/video-data.md`), read lazily.
+//!   (rendered by `scripts/render_video.py`, described in `docs/video-data.md`), read lazily;
+//! - [`method`]: the whole method, [`method::decompose_video`]: the first frame's Retinex and
+//!   clusters, forward propagation with the stopping condition over three passes (`M` = 30,
+//!   20, 10), completion of stopping frames (eqs. 3.8–3.10) with backward propagation, and the
+//!   residual Laplace fill (eq. 3.11), with per-frame state in a scratch folder.
+//! - [`score`]: the evaluation's figures, per-frame LMSE and temporal flicker (the mean
+//!   absolute change of log grey reflectance along the flow);
+//! - [`labels_io`]: cluster ids as lossless 16-bit PNG files (`decompose video`'s `labels/`);
+//! - [`baseline`]: the per-frame methods the evaluation compares against (Zhao et al. Retinex
+//!   and the clustering method of ch. 2 on every frame alone).
 
+pub mod baseline;
 pub mod edit;
 pub mod flow;
 pub mod frames;
+pub mod labels_io;
+pub mod method;
 pub mod propagate;
+pub mod score;
 pub mod segment;
 pub mod truth;

@@ -1,5 +1,6 @@
-//! `decompose bench`: timings of the clustering method, and with `--lightfield` of the
-//! light-field method against per-view Retinex in the same run.
+//! `decompose bench`: timings of the clustering method, with `--lightfield` of the light-field
+//! method against per-view Retinex in the same run, and with `--video` of the video method
+//! (module `bench_video`).
 
 use std::path::Path;
 use std::time::Instant;
@@ -23,11 +24,29 @@ pub(crate) struct BenchArgs {
     /// decomposed by the light-field method (per-stage split) and by per-view Retinex.
     #[arg(long, value_name = "SIZE")]
     lightfield: Option<u32>,
+    /// Instead: the video method on an N-frame sequence (default 100; a synthetic one unless
+    /// --video-input is given): amortised frames/s, per-stage split, peak RSS, and the
+    /// per-frame Retinex and clustering baselines in the same run.
+    #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "100")]
+    video: Option<usize>,
+    /// --video: frame size of the synthetic sequence.
+    #[arg(long, default_value = "800x600", value_name = "WxH")]
+    video_size: String,
+    /// --video: a folder of linear frames (or a video file) instead of the synthetic sequence.
+    #[arg(long, value_name = "PATH")]
+    video_input: Option<std::path::PathBuf>,
+    /// --video: frames the per-frame baselines are timed on (the first ones).
+    #[arg(long, default_value_t = 10)]
+    baseline_frames: usize,
 }
 
 pub(crate) fn run_bench(a: BenchArgs) -> Result<()> {
     if let Some(size) = a.lightfield {
         return bench_lightfield(size);
+    }
+    if let Some(n) = a.video {
+        let size = crate::bench_video::parse_size(&a.video_size)?;
+        return crate::bench_video::bench_video(n, size, a.video_input.as_ref(), a.baseline_frames);
     }
     let astronaut = io::decode_rgb(
         include_bytes!("../../../../fixtures/photos/astronaut.jpg"),

@@ -61,3 +61,45 @@ pub(crate) fn output_format(linear_output: bool, depth: u8) -> (Encoding, Depth)
     };
     (enc, depth)
 }
+
+/// A folder removed with its content when dropped, unless [`TempDir::keep`] is called.
+pub(crate) struct TempDir {
+    path: Option<PathBuf>,
+}
+
+impl TempDir {
+    /// A new empty folder named `{prefix}{pid}-{n}` (the first `n` that is free) inside
+    /// `parent`.
+    pub(crate) fn new(parent: &Path, prefix: &str) -> Result<Self> {
+        let pid = std::process::id();
+        for n in 0u32.. {
+            let path = parent.join(format!("{prefix}{pid}-{n}"));
+            match std::fs::create_dir(&path) {
+                Ok(()) => return Ok(Self { path: Some(path) }),
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+                Err(e) => {
+                    return Err(e).with_context(|| format!("creating {}", path.display()));
+                }
+            }
+        }
+        unreachable!("u32 range exhausted")
+    }
+
+    pub(crate) fn path(&self) -> &Path {
+        self.path.as_deref().unwrap_or(Path::new(""))
+    }
+
+    /// Keeps the folder on drop (it has been moved to its final place).
+    pub(crate) fn keep(mut self) -> PathBuf {
+        self.path.take().unwrap_or_default()
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        if let Some(p) = &self.path {
+            // Best effort: a failure leaves a clearly named folder behind.
+            let _ = std::fs::remove_dir_all(p);
+        }
+    }
+}

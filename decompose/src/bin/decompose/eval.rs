@@ -95,9 +95,7 @@ pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
                 mask: None,
                 k: decompose::clustering::ClusteringParams::default().k,
                 seed: 0,
-                albedo_strokes: vec![],
-                shading_strokes: vec![],
-                local_threshold: vec![],
+                strokes: Default::default(),
             };
             let t = Instant::now();
             let run = run_method(&input, Some(&mask), &o, &ProgressBar::hidden())

@@ -49,15 +49,45 @@ pub(crate) struct DecomposeArgs {
     /// Random seed (clustering).
     #[arg(long, default_value_t = 0)]
     pub(crate) seed: u64,
-    /// Constant-albedo stroke masks (retinex), repeatable.
+    #[command(flatten)]
+    pub(crate) strokes: StrokeArgs,
+}
+
+/// User strokes (§3.4): masks the size of the image (of the first frame for a video).
+#[derive(Args, Clone, Default)]
+pub(crate) struct StrokeArgs {
+    /// Constant-albedo stroke masks (retinex, video), repeatable.
     #[arg(long = "albedo-stroke")]
     pub(crate) albedo_strokes: Vec<PathBuf>,
-    /// Constant-shading stroke masks (retinex), repeatable.
+    /// Constant-shading stroke masks (retinex, video), repeatable.
     #[arg(long = "shading-stroke")]
     pub(crate) shading_strokes: Vec<PathBuf>,
-    /// Regions using the local chroma threshold T' (retinex), repeatable.
+    /// Regions using the local chroma threshold T' (retinex, video), repeatable.
     #[arg(long = "local-threshold")]
     pub(crate) local_threshold: Vec<PathBuf>,
+}
+
+impl StrokeArgs {
+    pub(crate) fn load(&self) -> Result<Strokes> {
+        Ok(Strokes {
+            constant_albedo: load_masks(&self.albedo_strokes)?,
+            constant_shading: load_masks(&self.shading_strokes)?,
+            local_threshold: load_masks(&self.local_threshold)?,
+        })
+    }
+}
+
+/// How decomposition layers are written.
+#[derive(Args, Clone)]
+pub(crate) struct OutputArgs {
+    /// Bits per sample of the reflectance and shading PNGs.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u8).range(8..=16))]
+    pub(crate) depth: u8,
+    /// Write linear values instead of display gamma (sRGB), and also the reflectance and
+    /// shading as TIFFs: 32-bit float, unclipped and unscaled, so that their product is the
+    /// input.
+    #[arg(long)]
+    pub(crate) linear_output: bool,
 }
 
 #[derive(Args)]
@@ -69,13 +99,8 @@ pub(crate) struct ImageArgs {
     out_dir: PathBuf,
     #[command(flatten)]
     opts: DecomposeArgs,
-    /// Bits per sample of reflectance.png and shading.png.
-    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u8).range(8..=16))]
-    depth: u8,
-    /// Write linear values instead of display gamma (sRGB), and also reflectance.tiff and
-    /// shading.tiff: 32-bit float, unclipped and unscaled, so that their product is the input.
-    #[arg(long)]
-    linear_output: bool,
+    #[command(flatten)]
+    output: OutputArgs,
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
@@ -113,11 +138,7 @@ pub(crate) fn run_method(
             }
         }
         Method::Retinex => {
-            let strokes = Strokes {
-                constant_albedo: load_masks(&o.albedo_strokes)?,
-                constant_shading: load_masks(&o.shading_strokes)?,
-                local_threshold: load_masks(&o.local_threshold)?,
-            };
+            let strokes = o.strokes.load()?;
             let (d, info) = retinex::decompose(
                 input,
                 mask,
@@ -165,7 +186,7 @@ pub(crate) fn run_image(a: ImageArgs) -> Result<()> {
     pb.finish_and_clear();
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("creating {}", a.out_dir.display()))?;
-    let (enc, depth) = output_format(a.linear_output, a.depth);
+    let (enc, depth) = output_format(a.output.linear_output, a.output.depth);
     let d = &run.decomposition;
     io::save(
         a.out_dir.join("reflectance.png"),
@@ -193,7 +214,7 @@ pub(crate) fn run_image(a: ImageArgs) -> Result<()> {
     // The PNGs clip the brightest 0.5% of reflectance values (the decomposition's scale puts
     // its 99.5th percentile at 1) and scale the shading to its maximum; the float TIFFs keep
     // every value, so reflectance.tiff × shading.tiff = the linear input inside the mask.
-    if a.linear_output {
+    if a.output.linear_output {
         io::save_float_tiff(a.out_dir.join("reflectance.tiff"), &d.reflectance)?;
         io::save_float_tiff(a.out_dir.join("shading.tiff"), &d.shading)?;
     }
@@ -217,7 +238,12 @@ pub(crate) fn run_image(a: ImageArgs) -> Result<()> {
     stats["width"] = input.width().into();
     stats["height"] = input.height().into();
     stats["shading_scale"] = smax.into();
-    stats["output_encoding"] = if a.linear_output { "linear" } else { "srgb" }.into();
+    stats["output_encoding"] = if a.output.linear_output {
+        "linear"
+    } else {
+        "srgb"
+    }
+    .into();
     std::fs::write(
         a.out_dir.join("stats.json"),
         serde_json::to_string_pretty(&stats)?,

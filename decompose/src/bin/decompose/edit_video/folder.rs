@@ -149,7 +149,15 @@ impl VideoFolder {
     /// Reflectance and labels of frame `i` (the cluster table needs no shading).
     pub(crate) fn reflectance_and_labels(&self, i: usize) -> Result<(Image, Labels)> {
         let r = self.reflectance.frame(i)?;
-        Ok((r, read_labels(self.labels.path(i))?))
+        let path = self.labels.path(i);
+        let labels = decompose::video::labels_io::load_labels(path).with_context(|| {
+            format!(
+                "{}: the labels/ files (16-bit cluster ids) are needed; the false-colour \
+                 clusters/ images cannot be read back as labels",
+                path.display()
+            )
+        })?;
+        Ok((r, labels))
     }
 
     /// All three layers of frame `i`, the shading in the decomposition's linear scale.
@@ -202,47 +210,6 @@ fn shading_scales(stats: Option<&serde_json::Value>, n: usize) -> Result<Vec<f32
         }
     }
     Ok(vec![1.0; n])
-}
-
-/// Reads a labels file: a 16-bit grey PNG holding cluster id + 1, 0 for unassigned pixels.
-pub(crate) fn read_labels(path: &Path) -> Result<Labels> {
-    let img = image::ImageReader::open(path)
-        .with_context(|| format!("reading {}", path.display()))?
-        .with_guessed_format()
-        .with_context(|| format!("reading {}", path.display()))?
-        .decode()
-        .with_context(|| format!("decoding {}", path.display()))?;
-    let image::DynamicImage::ImageLuma16(buf) = img else {
-        bail!(
-            "{} is not a 16-bit grey PNG of cluster ids (found {:?}); the false-colour \
-             clusters/ images cannot be read back as labels",
-            path.display(),
-            img.color()
-        );
-    };
-    let (width, height) = buf.dimensions();
-    let data: Vec<u32> = buf
-        .into_raw()
-        .into_iter()
-        .map(|v| {
-            if v == 0 {
-                Labels::NONE
-            } else {
-                u32::from(v) - 1
-            }
-        })
-        .collect();
-    let count = data
-        .iter()
-        .filter(|&&l| l != Labels::NONE)
-        .max()
-        .map_or(0, |&m| m as usize + 1);
-    Ok(Labels {
-        width,
-        height,
-        data,
-        count,
-    })
 }
 
 /// The path of output frame `i`.

@@ -1,0 +1,270 @@
+//! The passes of Algorithm 1: forward propagation with the stopping condition, completion of
+//! each stopping frame followed by backward propagation of its new clusters, three times with
+//! `M` = 30, 20, 10 (see the module docs of `method` for the reading).
+
+use std::time::Instant;
+
+use crate::error::Result;
+use crate::image::Image;
+use crate::image::Mask;
+use crate::progress::{Progress, ProgressFn};
+use crate::video::flow::{Flow, flow};
+use crate::video::frames::FrameSource;
+use crate::video::propagate::{ClusterTables, PropagateParams, propagate, should_stop};
+
+use super::complete::complete_frame;
+use super::first::FIRST_FRAME_SHARE;
+use super::state::{FrameState, PixelSource, Scratch};
+use super::{FrameStats, VideoParams};
+
+/// Everything a run keeps in memory besides the two or three frames being worked on: the
+/// tables, per-frame counters (a few numbers each) and the list of stopping frames.
+pub(crate) struct Run<'a> {
+    pub source: &'a FrameSource,
+    pub params: &'a VideoParams,
+    pub scratch: Scratch,
+    pub tables: ClusterTables,
+    pub stats: Vec<FrameStats>,
+    pub stopping: Vec<usize>,
+}
+
+/// The frame propagation starts from: its number, state and image.
+struct Side<'a> {
+    index: usize,
+    state: &'a FrameState,
+    img: &'a Image,
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+impl Run<'_> {
+    fn dims(&self) -> (u32, u32) {
+        self.source.size()
+    }
+
+    /// The propagation parameters of pass `pass` (0, 1, 2), with the ablation applied.
+    fn pass_params(&self, pass: usize) -> PropagateParams {
+        let mut p = self.params.propagate.clone();
+        p.m = PropagateParams::PASS_WINDOWS[pass];
+        if self.params.ablation.no_confidence_threshold {
+            // Every MAP cluster is taken: ε as small as validation allows, β = 1.
+            p.epsilon = f64::MIN_POSITIVE;
+            p.beta = 1.0;
+        }
+        p
+    }
+
+    /// The flow from frame `from` to frame `to` (= from ± 1), cached in the scratch folder; the
+    /// zero flow under the `no_optical_flow` ablation. Time goes to frame `to`.
+    fn flow(&mut self, from: usize, to: usize, a: &Image, b: &Image) -> Result<Flow> {
+        let (w, h) = self.dims();
+        if self.params.ablation.no_optical_flow {
+            return Ok(Flow::zeros(w, h));
+        }
+        let (t, forward) = if to > from { (from, true) } else { (to, false) };
+        if let Some(f) = self.scratch.load_flow(t, forward, (w, h))? {
+            return Ok(f);
+        }
+        let t0 = Instant::now();
+        let f = flow(a, b, &self.params.flow)?;
+        self.scratch.save_flow(t, forward, &f)?;
+        self.stats[to].flow_ms += ms(t0);
+        Ok(f)
+    }
+
+    /// Propagates the clusters of frame `from` into the unassigned pixels of frame `to`
+    /// (`state`, `img`); returns how many were assigned.
+    fn propagate_into(
+        &mut self,
+        from: Side<'_>,
+        to: usize,
+        state: &mut FrameState,
+        img: &Image,
+        pp: &PropagateParams,
+    ) -> Result<usize> {
+        if state.unassigned() == 0 {
+            return Ok(0);
+        }
+        let f = self.flow(from.index, to, from.img, img)?;
+        let t0 = Instant::now();
+        let labels = from.state.labels(self.tables.cluster_count());
+        let prop = propagate(&self.tables, &labels, img, &f, pp)?;
+        let floor = (img.max() * crate::decomposition::SHADING_FLOOR).max(f32::MIN_POSITIVE);
+        let mut added = 0;
+        for i in 0..state.len() {
+            let l = prop.labels.data[i];
+            if state.source[i] != PixelSource::Unassigned || l == crate::Labels::NONE {
+                continue;
+            }
+            // Grey shading fitting I ≈ R̂ S in least squares; R = I / S keeps R × S = I.
+            let (rh, px) = (prop.reflectance.rgb(i), img.rgb(i));
+            let num: f32 = (0..3).map(|c| px[c] * rh[c]).sum();
+            let den: f32 = rh.iter().map(|v| v * v).sum();
+            let s = if den > 0.0 { num / den } else { 0.0 };
+            state.shading[i] = if s.is_finite() { s.max(floor) } else { floor };
+            state.labels[i] = l;
+            state.source[i] = PixelSource::Propagation;
+            added += 1;
+        }
+        self.stats[to].propagate_ms += ms(t0);
+        Ok(added)
+    }
+
+    /// One forward pass (`pass` = 0, 1, 2): frames 1..n in order; see the module docs.
+    pub fn forward_pass(&mut self, pass: usize, progress: ProgressFn) -> Result<()> {
+        let n = self.source.len();
+        let dims = self.dims();
+        let pp = self.pass_params(pass);
+        let mut prev_img = self.source.frame(0)?;
+        let mut prev = self.scratch.load_state(0, dims)?;
+        let mut last_stop = 0;
+        for t in 1..n {
+            let img = self.source.frame(t)?;
+            let mut state = self.scratch.load_state(t, dims)?;
+            let fresh = !self.scratch.has_state(t);
+            if state.unassigned() > 0 {
+                let from = Side {
+                    index: t - 1,
+                    state: &prev,
+                    img: &prev_img,
+                };
+                self.propagate_into(from, t, &mut state, &img, &pp)?;
+                let hole = if self.params.ablation.complete_every_frame {
+                    Some(
+                        state
+                            .source
+                            .iter()
+                            .map(|&s| s == PixelSource::Unassigned)
+                            .collect(),
+                    )
+                } else {
+                    stop_region(&state.assigned_mask(), pp.m, pp.alpha)?
+                };
+                if let Some(hole) = hole {
+                    let t0 = Instant::now();
+                    complete_frame(&img, &mut state, &hole, &mut self.tables, self.params)?;
+                    self.stats[t].complete_ms += ms(t0);
+                    self.stats[t].completion_passes += 1;
+                    self.stopping.push(t);
+                    self.scratch.save_state(t, &state)?;
+                    self.backward_from(t, last_stop, &img, &state, &pp)?;
+                    last_stop = t;
+                } else {
+                    self.scratch.save_state(t, &state)?;
+                }
+            } else if fresh {
+                self.scratch.save_state(t, &state)?;
+            }
+            progress(Progress {
+                stage: PASS_STAGES[pass],
+                fraction: pass_fraction(pass, t as f32 / (n - 1).max(1) as f32),
+            });
+            prev = state;
+            prev_img = img;
+        }
+        Ok(())
+    }
+
+    /// Backward propagation after the completion of stopping frame `ts` (§3.6): the clusters
+    /// of `ts` are carried to `ts − 1`, `ts − 2`, … into their unassigned pixels, down to the
+    /// frame after the previous stopping frame `stop_at` of this pass, and no further than a
+    /// frame that gains no pixel.
+    fn backward_from(
+        &mut self,
+        ts: usize,
+        stop_at: usize,
+        img: &Image,
+        state: &FrameState,
+        pp: &PropagateParams,
+    ) -> Result<()> {
+        let dims = self.dims();
+        let mut next_img = img.clone();
+        let mut next = state.clone();
+        for t in (stop_at + 1..ts).rev() {
+            let mut cur = self.scratch.load_state(t, dims)?;
+            if cur.unassigned() == 0 {
+                break;
+            }
+            let cur_img = self.source.frame(t)?;
+            let from = Side {
+                index: t + 1,
+                state: &next,
+                img: &next_img,
+            };
+            let added = self.propagate_into(from, t, &mut cur, &cur_img, pp)?;
+            if added == 0 {
+                break;
+            }
+            self.scratch.save_state(t, &cur)?;
+            next = cur;
+            next_img = cur_img;
+        }
+        Ok(())
+    }
+}
+
+/// The pixels to complete at a stopping frame: the unassigned pixels of every `m×m` window
+/// (inside the frame, clipped to it when the frame is smaller) in which more than the fraction
+/// `alpha` is unassigned, i.e. the windows that make [`should_stop`] true; `None` when there
+/// is no such window.
+pub(crate) fn stop_region(assigned: &Mask, m: u32, alpha: f64) -> Result<Option<Vec<bool>>> {
+    if !should_stop(assigned, m, alpha)? {
+        return Ok(None);
+    }
+    let (w, h) = (assigned.dims().0 as usize, assigned.dims().1 as usize);
+    let (mw, mh) = ((m as usize).min(w), (m as usize).min(h));
+    let data = assigned.data();
+    let integral = |value: &dyn Fn(usize) -> u32| {
+        let stride = w + 1;
+        let mut sat = vec![0u32; stride * (h + 1)];
+        for y in 0..h {
+            let mut row = 0u32;
+            for x in 0..w {
+                row += value(y * w + x);
+                sat[(y + 1) * stride + x + 1] = sat[y * stride + x + 1] + row;
+            }
+        }
+        move |x0: usize, y0: usize, x1: usize, y1: usize| {
+            sat[y1 * stride + x1] + sat[y0 * stride + x0]
+                - sat[y0 * stride + x1]
+                - sat[y1 * stride + x0]
+        }
+    };
+    // Windows by their top-left corner, then every pixel that some triggering window covers.
+    let unassigned = integral(&|i| u32::from(!data[i]));
+    let limit = alpha * (mw * mh) as f64;
+    let mut trigger = vec![false; w * h];
+    for y in 0..=h - mh {
+        for x in 0..=w - mw {
+            trigger[y * w + x] = unassigned(x, y, x + mw, y + mh) as f64 > limit;
+        }
+    }
+    let triggers = integral(&|i| u32::from(trigger[i]));
+    let mut hole = vec![false; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (x0, y0) = ((x + 1).saturating_sub(mw), (y + 1).saturating_sub(mh));
+            hole[y * w + x] = !data[y * w + x] && triggers(x0, y0, x + 1, y + 1) > 0;
+        }
+    }
+    Ok(Some(hole))
+}
+
+const PASS_STAGES: [&str; 3] = ["pass 1 (M = 30)", "pass 2 (M = 20)", "pass 3 (M = 10)"];
+
+/// Share of the progress bar after `done` of pass `pass`; the passes share what the first
+/// frame and the output leave, the first pass (which computes the flows) half of it.
+pub(crate) fn pass_fraction(pass: usize, done: f32) -> f32 {
+    let span = 1.0 - FIRST_FRAME_SHARE - OUTPUT_SHARE;
+    let (start, width) = match pass {
+        0 => (0.0, 0.5),
+        1 => (0.5, 0.25),
+        _ => (0.75, 0.25),
+    };
+    FIRST_FRAME_SHARE + span * (start + width * done)
+}
+
+/// The share of the progress bar given to the residual fill and the output.
+pub(crate) const OUTPUT_SHARE: f32 = 0.1;

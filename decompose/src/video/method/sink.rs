@@ -1,0 +1,147 @@
+//! What [`super::decompose_video`] hands back: the final frames, through a [`FrameSink`], and
+//! the run's statistics; and the last stage that produces them (the residual fill, eq. 3.11,
+//! frame by frame).
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::decomposition::Labels;
+use crate::error::Result;
+use crate::image::Image;
+use crate::progress::{Progress, ProgressFn};
+
+use super::passes;
+use super::residual;
+use super::state::PixelSource;
+
+/// One frame's final result, lent to a [`FrameSink`].
+#[derive(Clone, Copy, Debug)]
+pub struct VideoFrame<'a> {
+    /// Frame number, from 0.
+    pub index: usize,
+    /// Reflectance, 3 channels, linear, on the first frame's scale (its 99.5th percentile is
+    /// 1); `reflectance × shading` is the input frame.
+    pub reflectance: &'a Image,
+    /// Shading, 1 channel, linear.
+    pub shading: &'a Image,
+    /// The cluster of every pixel (`count` = the clusters known at the end of the run).
+    pub clusters: &'a Labels,
+}
+
+/// Receives the final frames of [`super::decompose_video`]: called exactly once per frame, in
+/// order 0, 1, …, n − 1, after all the passes.
+pub trait FrameSink {
+    /// Takes one frame; an error stops the run.
+    fn frame(&mut self, frame: VideoFrame<'_>) -> Result<()>;
+}
+
+/// A frame held in memory (for tests and evaluation of short sequences).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OwnedFrame {
+    /// Frame number.
+    pub index: usize,
+    /// Reflectance, 3 channels.
+    pub reflectance: Image,
+    /// Shading, 1 channel.
+    pub shading: Image,
+    /// Clusters.
+    pub clusters: Labels,
+}
+
+/// Collects every frame in memory: only for short sequences.
+impl FrameSink for Vec<OwnedFrame> {
+    fn frame(&mut self, f: VideoFrame<'_>) -> Result<()> {
+        self.push(OwnedFrame {
+            index: f.index,
+            reflectance: f.reflectance.clone(),
+            shading: f.shading.clone(),
+            clusters: f.clusters.clone(),
+        });
+        Ok(())
+    }
+}
+
+/// Any closure over [`VideoFrame`] is a sink.
+impl<F: FnMut(VideoFrame<'_>) -> Result<()>> FrameSink for F {
+    fn frame(&mut self, f: VideoFrame<'_>) -> Result<()> {
+        self(f)
+    }
+}
+
+/// What happened to one frame.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct FrameStats {
+    /// Frame number.
+    pub index: usize,
+    /// Fraction of the pixels whose value came from propagation (§3.5).
+    pub assigned_by_propagation: f64,
+    /// Fraction from completion (§3.6; all of frame 0, decomposed in step 1).
+    pub completed: f64,
+    /// Fraction from the residual Laplace fill (eq. 3.11). The three fractions sum to 1.
+    pub residual: f64,
+    /// How many times the frame was a stopping frame and was completed (0 to 3: at most once
+    /// per pass).
+    pub completion_passes: u32,
+    /// Optical flow computed into this frame, milliseconds.
+    pub flow_ms: f64,
+    /// Propagation into this frame, milliseconds.
+    pub propagate_ms: f64,
+    /// Completion and residual fill of this frame (frame 0: its Retinex and clusters),
+    /// milliseconds.
+    pub complete_ms: f64,
+}
+
+/// What happened in a [`super::decompose_video`] run.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct VideoStats {
+    /// One entry per frame, in order.
+    pub frames: Vec<FrameStats>,
+    /// The frames completed because propagation stopped there (§3.5.3) in any pass, in
+    /// increasing order, each once.
+    pub stopping_frames: Vec<usize>,
+    /// Steps 1–2 on frame 0, milliseconds.
+    pub first_frame_ms: f64,
+    /// The whole run, milliseconds.
+    pub total_ms: f64,
+    /// Number of clusters at the end (first frame's plus those made by completion).
+    pub clusters: usize,
+}
+
+/// The residual fill (eq. 3.11) and the sink, frame by frame; fills in the fractions.
+pub(crate) fn output(
+    run: &mut passes::Run,
+    sink: &mut dyn FrameSink,
+    progress: ProgressFn,
+) -> Result<()> {
+    let n = run.source.len();
+    let dims = run.source.size();
+    for t in 0..n {
+        let img = run.source.frame(t)?;
+        let mut st = run.scratch.load_state(t, dims)?;
+        let t0 = Instant::now();
+        residual::fill_residual(&img, &mut st, &run.params.retinex.solver)?;
+        run.stats[t].complete_ms += t0.elapsed().as_secs_f64() * 1e3;
+        let frac = |kind| st.source.iter().filter(|&&s| s == kind).count() as f64 / st.len() as f64;
+        let fs = &mut run.stats[t];
+        fs.assigned_by_propagation = frac(PixelSource::Propagation);
+        fs.completed = frac(PixelSource::Completion);
+        fs.residual = frac(PixelSource::Residual);
+        // The final state stays in the scratch folder (every pixel assigned).
+        run.scratch.save_state(t, &st)?;
+        let reflectance = st.reflectance(&img);
+        let shading = Image::from_vec(dims.0, dims.1, 1, std::mem::take(&mut st.shading))?;
+        let clusters = st.labels(run.tables.cluster_count());
+        sink.frame(VideoFrame {
+            index: t,
+            reflectance: &reflectance,
+            shading: &shading,
+            clusters: &clusters,
+        })?;
+        progress(Progress {
+            stage: "output",
+            fraction: 1.0 - passes::OUTPUT_SHARE * (1.0 - (t + 1) as f32 / n as f32),
+        });
+    }
+    Ok(())
+}
