@@ -61,6 +61,8 @@
 //!   parameter docs); the thesis parameters keep their published values.
 //! - k-means fits its centres on a seeded subsample (see [`crate::kmeans`]).
 
+mod features;
+mod median;
 mod params;
 mod regions;
 mod system;
@@ -69,6 +71,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+pub use features::features;
 pub use params::ClusteringParams;
 
 use crate::color::{linear_to_lab, luminance};
@@ -78,6 +81,8 @@ use crate::image::{Image, Mask, resolve_mask};
 use crate::kmeans::{KMeansInfo, KMeansParams, kmeans};
 use crate::progress::{Progress, ProgressFn};
 use crate::solver::{SolverInfo, zero_mean_per_component};
+use features::{chroma_source, feature_from_lab};
+use median::median_at_borders;
 use regions::{PixelData, components8, graph, merge_similar, merge_small, merge_thin};
 
 /// Number of equations of each kind in the linear system.
@@ -148,66 +153,6 @@ pub struct ClusteringOutput {
 
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
-}
-
-fn logistic(x: f32) -> f32 {
-    1.0 / (1.0 + (-x).exp())
-}
-
-/// The {β, a, b} feature of every pixel (eq. 2.2), for pixels inside the mask.
-pub fn features(input: &Image, mask: &Mask, params: &ClusteringParams) -> Vec<[f32; 3]> {
-    let lab: Vec<[f32; 3]> = (0..input.len())
-        .into_par_iter()
-        .map(|i| linear_to_lab(input.rgb(i)))
-        .collect();
-    let rgb: Vec<[f32; 3]> = (0..input.len()).map(|i| input.rgb(i)).collect();
-    feature_from_lab(&chroma_source(&lab, &rgb, params), mask, params)
-}
-
-/// The Lab triples the features are taken from: Lab itself, or with `chromaticity_features`
-/// its (a, b) replaced by the chromaticity of the linear RGB, which a change of illumination
-/// intensity (a cast shadow) leaves unchanged while Lab's a, b shrink with lightness.
-fn chroma_source(lab: &[[f32; 3]], rgb: &[[f32; 3]], params: &ClusteringParams) -> Vec<[f32; 3]> {
-    if !params.chromaticity_features {
-        return lab.to_vec();
-    }
-    lab.iter()
-        .zip(rgb)
-        .map(|(l, c)| {
-            let s = (c[0] + c[1] + c[2]).max(1e-6);
-            [
-                l[0],
-                100.0 * (c[0] - c[1]) / s,
-                100.0 * (c[0] + c[1] - 2.0 * c[2]) / (3f32.sqrt() * s),
-            ]
-        })
-        .collect()
-}
-
-fn feature_from_lab(lab: &[[f32; 3]], mask: &Mask, params: &ClusteringParams) -> Vec<[f32; 3]> {
-    let sel = || {
-        lab.iter()
-            .enumerate()
-            .filter(|(i, _)| mask.at(*i))
-            .map(|x| x.1)
-    };
-    let max_l = sel().map(|p| p[0]).fold(0.0f32, f32::max).max(1e-6);
-    let max_ab = sel()
-        .map(|p| p[1].abs().max(p[2].abs()))
-        .fold(0.0f32, f32::max);
-    // A grey image has no chroma; keep β meaningful with a unit floor.
-    let lambda = (params.lambda_fraction * max_ab).max(1e-3);
-    lab.iter()
-        .enumerate()
-        .filter(|(i, _)| mask.at(*i))
-        .map(|(_, p)| {
-            let l = p[0] / max_l;
-            let beta = lambda
-                * (logistic(params.mu * (l - params.l_max_fraction))
-                    - logistic(params.mu * (params.l_min_fraction - l)));
-            [beta, p[1], p[2]]
-        })
-        .collect()
 }
 
 /// Decomposes `input` (linear RGB) with the clustering method; `mask` limits the work (None:
@@ -413,52 +358,4 @@ fn solve_robust(
             delta / r.abs().max(delta)
         }
     })
-}
-
-/// Replaces the shading of pixels on a cluster border (a 4-neighbour in another cluster) by the
-/// median of the in-mask shading in a `size`×`size` window (§2.4).
-fn median_at_borders(s: &Image, labels: &[u32], w: usize, h: usize, size: usize) -> Image {
-    let r = (size / 2) as isize;
-    let border: Vec<usize> = (0..labels.len())
-        .filter(|&p| {
-            let l = labels[p];
-            if l == Labels::NONE {
-                return false;
-            }
-            let (x, y) = (p % w, p / w);
-            (x + 1 < w && labels[p + 1] != l && labels[p + 1] != Labels::NONE)
-                || (x > 0 && labels[p - 1] != l && labels[p - 1] != Labels::NONE)
-                || (y + 1 < h && labels[p + w] != l && labels[p + w] != Labels::NONE)
-                || (y > 0 && labels[p - w] != l && labels[p - w] != Labels::NONE)
-        })
-        .collect();
-    let values: Vec<(usize, f32)> = border
-        .par_iter()
-        .map_init(
-            || Vec::with_capacity(size * size),
-            |win, &p| {
-                let (x, y) = ((p % w) as isize, (p / w) as isize);
-                win.clear();
-                for dy in -r..=r {
-                    for dx in -r..=r {
-                        let (nx, ny) = (x + dx, y + dy);
-                        if nx >= 0 && ny >= 0 && nx < w as isize && ny < h as isize {
-                            let q = ny as usize * w + nx as usize;
-                            if labels[q] != Labels::NONE {
-                                win.push(s.px(q)[0]);
-                            }
-                        }
-                    }
-                }
-                let m = win.len() / 2;
-                let (_, v, _) = win.select_nth_unstable_by(m, f32::total_cmp);
-                (p, *v)
-            },
-        )
-        .collect();
-    let mut out = s.clone();
-    for (p, v) in values {
-        out.px_mut(p)[0] = v;
-    }
-    out
 }
