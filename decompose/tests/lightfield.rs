@@ -2,23 +2,14 @@
 //! rendered light field (`fixtures/lightfield/tiny`: 5×5 views of 48×48, exact ground truth).
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use decompose::io::{LoadOptions, load_rgb};
 
+mod common;
+use common::{decompose, os};
+
 fn tiny() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/lightfield/tiny")
-}
-
-fn decompose(args: &[&std::ffi::OsStr]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_decompose"))
-        .args(args)
-        .output()
-        .expect("run decompose")
-}
-
-fn os(s: &str) -> &std::ffi::OsStr {
-    std::ffi::OsStr::new(s)
+    common::fixture("lightfield/tiny")
 }
 
 fn copy_dir(from: &Path, to: &Path) {

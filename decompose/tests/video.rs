@@ -3,24 +3,16 @@
 //! truth and flow) and on broken copies of it.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use decompose::io::{LoadOptions, load_gray, load_rgb};
 use decompose::video::labels_io::load_labels;
 
+mod common;
+use common::{decompose, os};
+
 fn tiny() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/video/tiny")
-}
-
-fn decompose(args: &[&std::ffi::OsStr]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_decompose"))
-        .args(args)
-        .output()
-        .expect("run decompose")
-}
-
-fn os(s: &str) -> &std::ffi::OsStr {
-    std::ffi::OsStr::new(s)
+    common::fixture("video/tiny")
 }
 
 /// A copy of the fixture's input frames in `dir/frames`.

@@ -36,6 +36,31 @@ pub(crate) struct HueSaturation {
     pub(crate) saturation: f32,
 }
 
+/// The stylisation of `decompose edit stylise` and `decompose edit video-stylise`.
+#[derive(Args, Clone, Copy)]
+pub(crate) struct StyliseArgs {
+    /// Saturation factor.
+    #[arg(long, default_value_t = 1.4)]
+    saturation: f32,
+    /// Shading flattening in [0, 1].
+    #[arg(long, default_value_t = 0.6)]
+    flatten: f32,
+    /// Edge darkening in [0, 1].
+    #[arg(long, default_value_t = 0.8)]
+    edges: f32,
+}
+
+impl StyliseArgs {
+    pub(crate) fn params(&self) -> StyliseParams {
+        StyliseParams {
+            saturation: self.saturation,
+            flatten: self.flatten,
+            edge_strength: self.edges,
+            ..Default::default()
+        }
+    }
+}
+
 #[derive(Subcommand)]
 pub(crate) enum EditCommand {
     /// Rotate the reflectance hue / scale its saturation (inside --region or everywhere).
@@ -79,15 +104,8 @@ pub(crate) enum EditCommand {
     Stylise {
         #[command(flatten)]
         io: EditIo,
-        /// Saturation factor.
-        #[arg(long, default_value_t = 1.4)]
-        saturation: f32,
-        /// Shading flattening in [0, 1].
-        #[arg(long, default_value_t = 0.6)]
-        flatten: f32,
-        /// Edge darkening in [0, 1].
-        #[arg(long, default_value_t = 0.8)]
-        edges: f32,
+        #[command(flatten)]
+        style: StyliseArgs,
     },
     /// Segment by reflectance clusters; writes a false-colour label map.
     Segment {
@@ -166,20 +184,9 @@ pub(crate) fn run_edit(e: EditCommand) -> Result<()> {
             let out = edit::transfer(&run.decomposition, &src_run.decomposition.reflectance)?;
             save_edit(&a.out, &out)
         }
-        EditCommand::Stylise {
-            io: a,
-            saturation,
-            flatten,
-            edges,
-        } => {
+        EditCommand::Stylise { io: a, style } => {
             let (_, run) = decompose_file(&a)?;
-            let p = StyliseParams {
-                saturation,
-                flatten,
-                edge_strength: edges,
-                ..Default::default()
-            };
-            save_edit(&a.out, &edit::stylise(&run.decomposition, &p)?)
+            save_edit(&a.out, &edit::stylise(&run.decomposition, &style.params())?)
         }
         EditCommand::Segment { io: a, segments } => {
             let (_, run) = decompose_file(&a)?;

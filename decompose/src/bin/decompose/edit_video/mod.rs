@@ -15,7 +15,6 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use decompose::color::srgb_to_linear;
-use decompose::edit::StyliseParams;
 use decompose::io::{self, Depth, Encoding};
 use decompose::video::edit::material::MaterialEdit;
 use decompose::video::edit::recolour::{ClusterRecolour, Scribble};
@@ -26,7 +25,7 @@ use decompose::video::edit::{ClusterMeans, Frame, clusters_touched};
 use decompose::{Image, Mask};
 
 use crate::common::load_input;
-use crate::edit::parse_curve;
+use crate::edit::{StyliseArgs, parse_curve};
 use crate::lightfield::StagedFolder;
 use encode::encode_video;
 use folder::{FrameLayers, VideoFolder, frame_name};
@@ -96,15 +95,8 @@ pub(crate) enum VideoEdit {
     Stylise {
         #[command(flatten)]
         io: VideoEditIo,
-        /// Saturation factor.
-        #[arg(long, default_value_t = 1.4)]
-        saturation: f32,
-        /// Shading flattening in [0, 1].
-        #[arg(long, default_value_t = 0.6)]
-        flatten: f32,
-        /// Edge darkening in [0, 1].
-        #[arg(long, default_value_t = 0.8)]
-        edges: f32,
+        #[command(flatten)]
+        style: StyliseArgs,
     },
     /// Remap the shading of chosen clusters (or all) through a curve "x:y,x:y,..." in units of
     /// frame 0's largest shading.
@@ -238,19 +230,8 @@ fn decide(
             let info = serde_json::json!({ "source": source.display().to_string() });
             (Decided::Transfer(t), info)
         }
-        VideoEdit::Stylise {
-            saturation,
-            flatten,
-            edges,
-            ..
-        } => {
-            let p = StyliseParams {
-                saturation: *saturation,
-                flatten: *flatten,
-                edge_strength: *edges,
-                ..Default::default()
-            };
-            let s = VideoStylise::fit(&f0, &p)?;
+        VideoEdit::Stylise { style, .. } => {
+            let s = VideoStylise::fit(&f0, &style.params())?;
             let info = serde_json::json!({ "mean_shading": s.mean_shading() });
             (Decided::Stylise(s), info)
         }
