@@ -1,16 +1,17 @@
 //! Why does the video method's propagation stop (issue 20)? The first frames of the
-//! `bench --video` synthetic sequence (320×240, in memory): Retinex and clusters of frame 0,
+//! `bench --video` synthetic sequence (320×240 unless told, in memory): Retinex and clusters of frame 0,
 //! then [`propagate`] frame to frame *without* completion, and per frame the unassigned pixels
 //! by cause (colour in no cluster's Parzen ball; no candidate in the window or no source;
 //! posterior below ε; ratio below β), the stopping test for M = 30, 20, 10 and the worst 30×30
 //! window (with the clusters under it on frame 1).
 //!
 //! ```text
-//! nice -n 5 cargo run --release -p decompose --example video_stop_diag -- 4 [true]
+//! nice -n 5 cargo run --release -p decompose --example video_stop_diag -- 4 [true] [800x600]
 //! ```
 //!
 //! The first argument is the number of frames; `true` uses the true flow (2, 1) instead of
-//! TV-L1.
+//! TV-L1; `WxH` another frame size; `merged` propagates the clusters merged by mean
+//! reflectance whatever their adjacency (single linkage below 0.1) instead.
 use decompose::Image;
 use decompose::retinex::{self, RetinexParams, Strokes};
 use decompose::synthetic::wave_texture;
@@ -30,7 +31,13 @@ const PALETTE: [[f32; 3]; 5] = [
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let (w, h) = (320u32, 240u32);
+    let (w, h) = match args.iter().skip(1).find(|a| a.contains('x')) {
+        Some(s) => {
+            let (a, b) = s.split_once('x').expect("WxH");
+            (a.parse().expect("width"), b.parse().expect("height"))
+        }
+        None => (320u32, 240u32),
+    };
     let frames: usize = args.get(1).map(|s| s.parse().unwrap()).unwrap_or(4);
     let true_flow = args.iter().any(|a| a == "true");
     let pattern = wave_texture(7, 6, 60.0..220.0, 3.0);
@@ -61,6 +68,55 @@ fn main() {
     .unwrap();
     let tables = ClusterTables::from_frame(&img0, &d.reflectance, &clusters).unwrap();
     println!("clusters {}", clusters.count);
+    // How many would remain if clusters of nearly one mean reflectance were merged whatever
+    // their adjacency (single linkage, Euclidean distance of the means below 0.1)?
+    let means: Vec<[f32; 3]> = (0..clusters.count as u32)
+        .map(|k| tables.mean_reflectance(k).unwrap_or([0.0; 3]))
+        .collect();
+    let mut root: Vec<usize> = (0..means.len()).collect();
+    fn find(root: &mut [usize], mut i: usize) -> usize {
+        while root[i] != i {
+            root[i] = root[root[i]];
+            i = root[i];
+        }
+        i
+    }
+    for a in 0..means.len() {
+        for b in a + 1..means.len() {
+            let d2: f32 = (0..3).map(|c| (means[a][c] - means[b][c]).powi(2)).sum();
+            if d2 < 0.01 {
+                let (ra, rb) = (find(&mut root, a), find(&mut root, b));
+                root[ra] = rb;
+            }
+        }
+    }
+    let groups = (0..means.len())
+        .filter(|&i| find(&mut root, i) == i)
+        .count();
+    println!("groups of clusters with mean reflectance within 0.1 (any adjacency): {groups}");
+    // With `merged`: propagate those groups instead of the clusters.
+    let (clusters, tables) = if args.iter().any(|a| a == "merged") {
+        let mut ids = std::collections::BTreeMap::new();
+        let data: Vec<u32> = clusters
+            .data
+            .iter()
+            .map(|&l| {
+                let r = find(&mut root, l as usize);
+                let next = ids.len() as u32;
+                *ids.entry(r).or_insert(next)
+            })
+            .collect();
+        let merged = decompose::Labels {
+            width: w,
+            height: h,
+            data,
+            count: ids.len(),
+        };
+        let tables = ClusterTables::from_frame(&img0, &d.reflectance, &merged).unwrap();
+        (merged, tables)
+    } else {
+        (clusters, tables)
+    };
     let pp = PropagateParams::default();
     let mut prev = clusters.clone();
     let mut prev_img = img0;
