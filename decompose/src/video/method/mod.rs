@@ -103,6 +103,27 @@
 //! length: with a sink that keeps nothing, peak RSS 80 MiB for 30 and for 90 frames of
 //! 320×240 (seed 3 played forwards, backwards, forwards).
 //!
+//! **Stopping frames** (`bench --video`, synthetic sliding albedo, 2026-12-04): with `D`
+//! floored at one pixel in eq. 3.7, every frame stopped (19 of 19 at 320×240, 29 of 29 at
+//! 800×600). With the half-pixel floor now used (see the module docs of `propagate`): 6 of 19
+//! at 320×240 (one in pass 1, one in pass 2, the rest in pass 3 with holes of 80–400 px);
+//! still 29 of 29 at 800×600 (16, 21, 29 frames in passes 1, 2, 3; 4–6% of each frame left
+//! unassigned, holes of 0.1–1% completed). The cause there is the first frame's 132 clusters
+//! for 5 albedos: segments are merged only when adjacent, and clusters of one albedo split
+//! the likelihood of eq. 3.6 (which, normalised by `|𝓘_k|`, favours small clusters of
+//! concentrated colour), so the confidence test leaves bands unassigned along their
+//! boundaries; completion then adds clusters (196 after 30 frames). Merging clusters of mean
+//! reflectance within 0.1 whatever their adjacency (6 groups) leaves 1.8% of frame 1
+//! unassigned instead of 11.4% (`examples/video_stop_diag.rs -- 4 true 800x600 merged`), but
+//! done on the first frame only it did not reduce the stopping frames (29 of 29 at 800×600,
+//! 94 clusters after completion; 18 of 19 at 320×240), nor did letting completion's new
+//! segments also join a non-adjacent cluster of near mean (29 of 29 with 18 clusters; 18 of
+//! 19 with 9). Not kept. What remains is the likelihood: at 320×240 with merged clusters, a
+//! white pixel whose `p′` lands on the white cluster (29457 px) gets likelihood 0.28 there
+//! and 0.35 from a smaller cluster (3280 px, mean reflectance (0.99, 0.97, 0.83), Retinex's
+//! white–yellow blend) a few pixels away: posterior 0.79 < `ε`. No unassigned pixel had a
+//! colour outside every Parzen ball, and the revealed border (≈ 1% a frame) trips no window.
+//!
 //! # Ablations (Fig. 3.11), [`Ablation`]
 //!
 //! Completion on every frame (instead of at stopping frames only), no confidence threshold

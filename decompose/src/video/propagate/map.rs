@@ -141,6 +141,13 @@ pub fn propagate(
     // One slot per (pixel, candidate cluster): the squared distance from p′ to the cluster's
     // nearest pixel in frame t. 0 where p′ lands on the cluster; the others are requested
     // from a per-cluster distance transform.
+    // A request whose p′ lies farther than the window's reach from the bounding box of the
+    // cluster's pixels is answered "no pixel in the window" at once, and each transform only
+    // covers the cluster's box (plus its requests): otherwise a colour shared by many
+    // clusters makes every one of them run over the whole frame (clusters × pixels).
+    let radius = params.n as f64 / 2.0;
+    let reach = radius.floor() as usize;
+    let boxes = cluster_boxes(prev, k_count);
     let mut offsets = Vec::with_capacity(n + 1);
     offsets.push(0usize);
     let mut dist2: Vec<f64> = Vec::new();
@@ -149,18 +156,20 @@ pub fn propagate(
         let src = source[i];
         if src != NONE {
             let own = prev.data[src as usize];
+            let (sx, sy) = (src as usize % w, src as usize / w);
             for cand in &per_colour[colour_index[i] as usize] {
                 if cand.cluster == own {
                     dist2.push(0.0);
                 } else {
-                    requests[cand.cluster as usize].push((dist2.len(), src));
+                    if boxes[cand.cluster as usize].near(sx, sy, reach) {
+                        requests[cand.cluster as usize].push((dist2.len(), src));
+                    }
                     dist2.push(f64::INFINITY);
                 }
             }
         }
         offsets.push(dist2.len());
     }
-    let radius = params.n as f64 / 2.0;
     let answers: Vec<Vec<f64>> = requests
         .par_iter()
         .enumerate()
@@ -168,7 +177,7 @@ pub fn propagate(
             if req.is_empty() {
                 return Vec::new();
             }
-            nearest_dist2(prev, k as u32, req, radius.floor() as usize)
+            nearest_dist2_in(prev, k as u32, req, reach, &boxes[k])
         })
         .collect();
     for (req, ans) in requests.iter().zip(&answers) {
@@ -192,8 +201,8 @@ pub fn propagate(
                 if d2 > r2 {
                     continue;
                 }
-                // Eq. 3.7 with D floored at one pixel (D = 0 would be an infinite prior).
-                let prior = d2.max(1.0).powf(-0.25);
+                // Eq. 3.7 with D floored at half a pixel (D = 0 would be an infinite prior).
+                let prior = d2.max(D_FLOOR * D_FLOOR).powf(-0.25);
                 let score = cand.likelihood * prior;
                 sum += score;
                 if score > best {
@@ -271,6 +280,60 @@ pub fn propagate(
 /// Marks a pixel without a source in frame t.
 const NONE: u32 = u32::MAX;
 
+/// Smallest distance `D` (pixels) in the prior of eq. 3.7: `D = 0` (`p′` lands on a pixel of
+/// the cluster) would give an infinite prior. `p′` is rounded to the pixel grid, so the
+/// distances are only known to about half a pixel; see the module docs of `propagate`.
+pub(super) const D_FLOOR: f64 = 0.5;
+
+/// The bounding box of one cluster's pixels in frame t (empty when it has none).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SiteBox {
+    x0: usize,
+    y0: usize,
+    x1: usize,
+    y1: usize,
+}
+
+impl SiteBox {
+    const EMPTY: Self = Self {
+        x0: usize::MAX,
+        y0: usize::MAX,
+        x1: 0,
+        y1: 0,
+    };
+
+    fn is_empty(&self) -> bool {
+        self.x0 > self.x1
+    }
+
+    /// `true` when `(x, y)` is within `reach` pixels (per axis) of the box.
+    fn near(&self, x: usize, y: usize, reach: usize) -> bool {
+        !self.is_empty()
+            && x + reach >= self.x0
+            && x <= self.x1 + reach
+            && y + reach >= self.y0
+            && y <= self.y1 + reach
+    }
+}
+
+/// The [`SiteBox`] of every cluster of `prev`, in one pass.
+pub(super) fn cluster_boxes(prev: &Labels, k_count: usize) -> Vec<SiteBox> {
+    let w = prev.width as usize;
+    let mut boxes = vec![SiteBox::EMPTY; k_count];
+    for (i, &l) in prev.data.iter().enumerate() {
+        if l == Labels::NONE || l as usize >= k_count {
+            continue;
+        }
+        let (x, y) = (i % w, i / w);
+        let b = &mut boxes[l as usize];
+        b.x0 = b.x0.min(x);
+        b.y0 = b.y0.min(y);
+        b.x1 = b.x1.max(x);
+        b.y1 = b.y1.max(y);
+    }
+    boxes
+}
+
 /// The row-major index of the pixel of frame t that the flow carries onto `(x, y)` of frame
 /// t+1: `p′ = p − f(p′)` by fixed-point iteration, rounded; [`NONE`] when outside the frame.
 pub(super) fn source_pixel(flow: &Flow, x: usize, y: usize) -> u32 {
@@ -314,9 +377,27 @@ fn bilinear(flow: &Flow, x: f32, y: f32) -> (f32, f32) {
 /// than the truth or infinite). Felzenszwalb & Huttenlocher's two-pass distance transform over
 /// the requests' bounding box grown by `reach`: a pixel of `k` outside that box is more than
 /// `reach` away from every request.
+#[cfg(test)]
 pub(super) fn nearest_dist2(prev: &Labels, k: u32, req: &[(usize, u32)], reach: usize) -> Vec<f64> {
+    let sites = cluster_boxes(prev, k as usize + 1)[k as usize];
+    nearest_dist2_in(prev, k, req, reach, &sites)
+}
+
+/// [`nearest_dist2`] given the bounding box `sites` of the pixels labelled `k`: the transform
+/// runs over the requests' box grown by `reach`, cut to what covers `sites` and the requests
+/// (no pixel of `k` lies outside `sites`).
+fn nearest_dist2_in(
+    prev: &Labels,
+    k: u32,
+    req: &[(usize, u32)],
+    reach: usize,
+    sites: &SiteBox,
+) -> Vec<f64> {
     let w = prev.width as usize;
     let h = prev.height as usize;
+    if sites.is_empty() {
+        return vec![f64::INFINITY; req.len()];
+    }
     let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
     for &(_, s) in req {
         let (x, y) = (s as usize % w, s as usize / w);
@@ -325,8 +406,14 @@ pub(super) fn nearest_dist2(prev: &Labels, k: u32, req: &[(usize, u32)], reach: 
         x1 = x1.max(x);
         y1 = y1.max(y);
     }
-    let (x0, y0) = (x0.saturating_sub(reach), y0.saturating_sub(reach));
-    let (x1, y1) = ((x1 + reach).min(w - 1), (y1 + reach).min(h - 1));
+    let (x0, y0) = (
+        x0.min(x0.saturating_sub(reach).max(sites.x0)),
+        y0.min(y0.saturating_sub(reach).max(sites.y0)),
+    );
+    let (x1, y1) = (
+        x1.max((x1 + reach).min(sites.x1)).min(w - 1),
+        y1.max((y1 + reach).min(sites.y1)).min(h - 1),
+    );
     let (bw, bh) = (x1 - x0 + 1, y1 - y0 + 1);
 
     // Vertical pass: squared distance to the nearest site in the same column.

@@ -46,9 +46,18 @@
 //!   - the window: we use the disc of diameter `N` (radius `N/2`) inscribed in the `N×N`
 //!     square, so that the minimum is a Euclidean distance transform truncated at `N/2`; a
 //!     cluster with no pixel within `N/2` of `p′` is not a candidate;
-//!   - `D = 0` (`p′` lands on a pixel of `k`) would give an infinite prior; `D` is floored at
-//!     1 pixel, the distance of a 4-neighbour, so a pixel on the boundary between two
-//!     clusters of the same colour gets equal priors for both and stays unassigned;
+//!   - `D = 0` (`p′` lands on a pixel of `k`) would give an infinite prior, i.e. the issue,
+//!     taken literally, assigns every pixel whose `p′` lands on a cluster to that cluster and
+//!     leaves nothing to the confidence test; we read it as `D` floored at half a pixel
+//!     (`D_FLOOR` = 0.5 in `map`), the uncertainty of the rounded `p′`.
+//!     A pixel on the boundary between two clusters of the same colour (`p′` on one, the
+//!     other 1 px away) then gets priors √2 : 1, a posterior ≈ 0.59 < `ε`, and stays
+//!     unassigned. An earlier floor of 1 pixel made every pixel within about 13 px of
+//!     another cluster of the same colour and likelihood unassigned (`0.65 / (0.65 + 0.6
+//!     D^{-1/2}) < 0.8` below D ≈ 13): on the `bench --video` sequence, where the first
+//!     frame's Retinex splits one albedo into several clusters, bands ~25 px wide along those
+//!     boundaries filled more than 80% of 30×30 windows, and every frame was a stopping frame
+//!     (19 of 19 at 320×240; 6 of 19 with the half-pixel floor);
 //!   - frame t's unassigned pixels (label [`Labels::NONE`]) belong to no cluster.
 //! - posterior: `P(k | I_p) = P(I_p | k) P(k) / Σ_j P(I_p | j) P(j)` over the candidates (clusters
 //!   with a non-zero likelihood and a pixel in the window);
@@ -80,7 +89,11 @@
 //! the exact colour) is computed only for the (colour, cluster) pairs an assigned pixel needs,
 //! by a scan of the ball. Then distance transforms (Felzenszwalb & Huttenlocher's lower
 //! envelope of parabolas) are run per cluster only over the bounding box of the pixels that
-//! need them, i.e. those for which the cluster is a candidate but `p′` does not land on it.
+//! need them, i.e. those for which the cluster is a candidate but `p′` does not land on it,
+//! cut to the bounding box of the cluster's own pixels; a request farther than `N/2` from
+//! that box is answered "not in the window" without a transform. (Before that cut, a colour
+//! shared by many clusters made each of them transform the whole frame: work clusters ×
+//! pixels, which grew with the clusters added by completion.)
 //! Work is split with rayon per pixel, per run of colours and per cluster; every value is
 //! computed by one task in a fixed order, so the result does not depend on the number of
 //! threads.

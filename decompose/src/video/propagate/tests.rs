@@ -202,17 +202,18 @@ fn the_distance_prior_disambiguates_clusters_of_one_colour() {
     for x in 0..W {
         let d = twin_distance(x);
         let i = (10 * W + x) as usize;
-        // Equal likelihoods (1 each): posterior 1 / (1 + D^{-1/2}), ≥ 0.8 from D = 16 on;
-        // beyond N/2 = 25 the other cluster is out of the window and the posterior is 1.
+        // Equal likelihoods (1 each), own prior (1/2)^{-1/2} (D floored at half a pixel):
+        // posterior 1 / (1 + (2D)^{-1/2}), ≥ 0.8 from D = 8 on; beyond N/2 = 25 the other
+        // cluster is out of the window and the posterior is 1.
         let expected = if d > 25 {
             1.0
         } else {
-            1.0 / (1.0 + (d as f64).powf(-0.5))
+            1.0 / (1.0 + (2.0 * d as f64).powf(-0.5))
         };
         assert!((p.posterior[i] as f64 - expected).abs() < 1e-6, "x = {x}");
-        if d >= 17 {
+        if d >= 8 {
             assert_eq!(p.labels.data[i], labels.data[i], "x = {x}");
-        } else if d <= 15 {
+        } else {
             assert_eq!(p.labels.data[i], Labels::NONE, "x = {x}");
         }
     }
@@ -229,20 +230,21 @@ fn confidence_thresholds_epsilon_and_beta() {
         };
         propagate(&tables, &labels, &input, &Flow::zeros(W, H), &params).unwrap()
     };
-    // x = 26: D = 6, posterior 1/(1 + 6^{-1/2}) = 0.710, ratio √6 = 2.45.
-    let i = (5 * W + 26) as usize;
+    // x = 28: D = 4, posterior 1/(1 + 8^{-1/2}) = 0.739 (own prior √2, D floored at 1/2),
+    // ratio √8 = 2.83.
+    let i = (5 * W + 28) as usize;
     let p = run(0.8, 2.0);
-    assert!((p.posterior[i] - 0.7101).abs() < 1e-4);
+    assert!((p.posterior[i] - 0.7388).abs() < 1e-4);
     assert_eq!(p.labels.data[i], Labels::NONE);
     assert_eq!(run(0.7, 2.0).labels.data[i], 0);
-    // x = 28: D = 4, ratio exactly 2 (passes β = 2); x = 29: D = 3, ratio √3 (fails).
+    // x = 30: D = 2, ratio √4 = 2 (passes β = 2); x = 31: D = 1, ratio √2 (fails).
     let p = run(0.5, 2.0);
-    assert_eq!(p.labels.data[(5 * W + 28) as usize], 0);
-    assert_eq!(p.labels.data[(5 * W + 29) as usize], Labels::NONE);
-    assert_eq!(run(0.5, 1.5).labels.data[(5 * W + 29) as usize], 0);
-    // x = 31, D = 1: a tie, never confident unless both thresholds allow it.
+    assert_eq!(p.labels.data[(5 * W + 30) as usize], 0);
+    assert_eq!(p.labels.data[(5 * W + 31) as usize], Labels::NONE);
+    assert_eq!(run(0.5, 1.4).labels.data[(5 * W + 31) as usize], 0);
+    // x = 32 lands on the right twin, D = 1 to the left one: the mirror image.
     assert_eq!(
-        run(0.5, 2.0).labels.data[(5 * W + 31) as usize],
+        run(0.5, 2.0).labels.data[(5 * W + 32) as usize],
         Labels::NONE
     );
 }
@@ -283,7 +285,7 @@ fn unassigned_pixels_of_frame_t_belong_to_no_cluster() {
     .unwrap();
     let i = (3 * W + 31) as usize;
     assert_eq!(p.labels.data[i], 0);
-    assert!((p.posterior[i] as f64 - 1.0 / (1.0 + 21f64.powf(-0.5))).abs() < 1e-6);
+    assert!((p.posterior[i] as f64 - 1.0 / (1.0 + 42f64.powf(-0.5))).abs() < 1e-6);
 }
 
 fn brute_force_stop(mask: &Mask, m: u32, alpha: f64) -> bool {
