@@ -14,7 +14,10 @@
 //! 2. **Clusters** (§3.4): [`reflectance_clusters`] of the first reflectance and the tables
 //!    [`ClusterTables`] `𝓡_k`, `𝓘_k`.
 //! 3. **Flow**: TV-L1 ([`crate::video::flow`]) between consecutive frames, each pair computed
-//!    once per direction and cached in the scratch folder.
+//!    once per direction and cached in the scratch folder. In the first forward pass the
+//!    flow t → t + 1 is computed beside frame t's propagation and completion (it needs only
+//!    the two frames): each keeps about one core busy, and the overlap took `bench --video`
+//!    at 800×600 from 134 s to 99 s for 100 frames with the same output.
 //! 4. **Propagation** (§3.5.1–3.5.2): [`propagate`] from frame t to t + 1 (or t + 1 to t on the
 //!    way back). It only fills pixels that are still unassigned: a pixel, once assigned, keeps
 //!    its value, so every pixel is assigned exactly once. The issue gives the propagated

@@ -120,42 +120,46 @@ impl Run<'_> {
         let mut prev_img = self.source.frame(0)?;
         let mut prev = self.scratch.load_state(0, dims)?;
         let mut last_stop = 0;
+        let mut next_img = if n > 1 {
+            Some(self.source.frame(1)?)
+        } else {
+            None
+        };
+        if n > 1 {
+            // Frame 1's flow has nothing to overlap with.
+            self.flow(0, 1, &prev_img, next_img.as_ref().unwrap_or(&prev_img))?;
+        }
         for t in 1..n {
-            let img = self.source.frame(t)?;
-            let mut state = self.scratch.load_state(t, dims)?;
-            let fresh = !self.scratch.has_state(t);
-            if state.unassigned() > 0 {
-                let from = Side {
-                    index: t - 1,
-                    state: &prev,
-                    img: &prev_img,
-                };
-                self.propagate_into(from, t, &mut state, &img, &pp)?;
-                let hole = if self.params.ablation.complete_every_frame {
-                    Some(
-                        state
-                            .source
-                            .iter()
-                            .map(|&s| s == PixelSource::Unassigned)
-                            .collect(),
-                    )
-                } else {
-                    stop_region(&state.assigned_mask(), pp.m, pp.alpha)?
-                };
-                if let Some(hole) = hole {
-                    let t0 = Instant::now();
-                    complete_frame(&img, &mut state, &hole, &mut self.tables, self.params)?;
-                    self.stats[t].complete_ms += ms(t0);
-                    self.stats[t].completion_passes += 1;
-                    self.stopping.push(t);
-                    self.scratch.save_state(t, &state)?;
-                    self.backward_from(t, last_stop, &img, &state, &pp)?;
-                    last_stop = t;
-                } else {
-                    self.scratch.save_state(t, &state)?;
-                }
-            } else if fresh {
-                self.scratch.save_state(t, &state)?;
+            let img = match next_img.take() {
+                Some(img) => img,
+                None => self.source.frame(t)?,
+            };
+            // The flow t → t + 1 depends on the frames alone: computed on the other core
+            // while this frame is propagated and completed (the two use one core each for
+            // much of their time), then cached for `propagate_into` at t + 1.
+            next_img = if t + 1 < n {
+                Some(self.source.frame(t + 1)?)
+            } else {
+                None
+            };
+            let prefetch = next_img.as_ref().filter(|_| {
+                !self.params.ablation.no_optical_flow && !self.scratch.has_flow(t, true)
+            });
+            let flow_params = self.params.flow.clone();
+            let (ahead, this) = rayon::join(
+                || {
+                    prefetch.map(|next| {
+                        let t0 = Instant::now();
+                        flow(&img, next, &flow_params).map(|f| (f, ms(t0)))
+                    })
+                },
+                || self.forward_frame(t, &pp, &img, &prev, &prev_img, &mut last_stop),
+            );
+            let state = this?;
+            if let Some(ahead) = ahead {
+                let (f, took) = ahead?;
+                self.scratch.save_flow(t, true, &f)?;
+                self.stats[t + 1].flow_ms += took;
             }
             progress(Progress {
                 stage: PASS_STAGES[pass],
@@ -165,6 +169,56 @@ impl Run<'_> {
             prev_img = img;
         }
         Ok(())
+    }
+
+    /// Frame `t` of a forward pass: propagation from `t − 1`, completion when it stops (then
+    /// backward propagation); returns its state.
+    fn forward_frame(
+        &mut self,
+        t: usize,
+        pp: &PropagateParams,
+        img: &Image,
+        prev: &FrameState,
+        prev_img: &Image,
+        last_stop: &mut usize,
+    ) -> Result<FrameState> {
+        let dims = self.dims();
+        let mut state = self.scratch.load_state(t, dims)?;
+        let fresh = !self.scratch.has_state(t);
+        if state.unassigned() > 0 {
+            let from = Side {
+                index: t - 1,
+                state: prev,
+                img: prev_img,
+            };
+            self.propagate_into(from, t, &mut state, img, pp)?;
+            let hole = if self.params.ablation.complete_every_frame {
+                Some(
+                    state
+                        .source
+                        .iter()
+                        .map(|&s| s == PixelSource::Unassigned)
+                        .collect(),
+                )
+            } else {
+                stop_region(&state.assigned_mask(), pp.m, pp.alpha)?
+            };
+            if let Some(hole) = hole {
+                let t0 = Instant::now();
+                complete_frame(img, &mut state, &hole, &mut self.tables, self.params)?;
+                self.stats[t].complete_ms += ms(t0);
+                self.stats[t].completion_passes += 1;
+                self.stopping.push(t);
+                self.scratch.save_state(t, &state)?;
+                self.backward_from(t, *last_stop, img, &state, pp)?;
+                *last_stop = t;
+            } else {
+                self.scratch.save_state(t, &state)?;
+            }
+        } else if fresh {
+            self.scratch.save_state(t, &state)?;
+        }
+        Ok(state)
     }
 
     /// Backward propagation after the completion of stopping frame `ts` (§3.6): the clusters

@@ -181,6 +181,11 @@ impl Scratch {
         })
     }
 
+    /// Whether the flow from frame t to t + 1 (`forward`) or back is cached.
+    pub fn has_flow(&self, t: usize, forward: bool) -> bool {
+        self.flow_path(t, forward).is_file()
+    }
+
     /// The cached flow from frame t to t + 1 (`forward`) or from t + 1 to t, if computed.
     pub fn load_flow(&self, t: usize, forward: bool, dims: (u32, u32)) -> Result<Option<Flow>> {
         let path = self.flow_path(t, forward);
