@@ -12,22 +12,13 @@
 //! The first argument is the number of frames; `true` uses the true flow (2, 1) instead of
 //! TV-L1; `WxH` another frame size; `merged` propagates the clusters merged by mean
 //! reflectance whatever their adjacency (single linkage below 0.1) instead.
-use decompose::Image;
 use decompose::retinex::{self, RetinexParams, Strokes};
-use decompose::synthetic::wave_texture;
+use decompose::synthetic::sliding_albedo;
 use decompose::video::flow::{Flow, TvL1FlowParams, flow};
 use decompose::video::propagate::{
     ClusterTables, PropagateParams, colour8, propagate, should_stop,
 };
 use decompose::video::segment::{FelzenszwalbParams, MeanMergeParams, reflectance_clusters};
-
-const PALETTE: [[f32; 3]; 5] = [
-    [0.80, 0.25, 0.20],
-    [0.20, 0.60, 0.30],
-    [0.25, 0.30, 0.85],
-    [0.85, 0.80, 0.30],
-    [0.90, 0.90, 0.90],
-];
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -40,17 +31,7 @@ fn main() {
     };
     let frames: usize = args.get(1).map(|s| s.parse().unwrap()).unwrap_or(4);
     let true_flow = args.iter().any(|a| a == "true");
-    let pattern = wave_texture(7, 6, 60.0..220.0, 3.0);
-    let light = wave_texture(11, 3, 500.0..1200.0, 1.5);
-    let frame = |t: usize| {
-        let (dx, dy) = (2.0 * t as f64, 1.0 * t as f64);
-        Image::from_fn(w, h, |x, y| {
-            let level = pattern(x as f64 - dx, y as f64 - dy);
-            let a = PALETTE[((level * 5.0) as usize).min(4)];
-            let s = (0.25 + 0.75 * light(x as f64, y as f64)) as f32;
-            [a[0] * s, a[1] * s, a[2] * s]
-        })
-    };
+    let frame = sliding_albedo(w, h);
     let img0 = frame(0);
     let (d, _) = retinex::decompose(
         &img0,

@@ -157,6 +157,36 @@ pub fn scene(width: u32, height: u32, seed: u64) -> GroundTruth {
     compose(refl, shade)
 }
 
+/// Albedos of [`sliding_albedo`]'s five regions.
+const SLIDING_PALETTE: [[f32; 3]; 5] = [
+    [0.80, 0.25, 0.20],
+    [0.20, 0.60, 0.30],
+    [0.25, 0.30, 0.85],
+    [0.85, 0.80, 0.30],
+    [0.90, 0.90, 0.90],
+];
+
+/// Pixels per frame the albedo of [`sliding_albedo`] moves, (right, down).
+pub const SLIDING_MOTION: (f64, f64) = (2.0, 1.0);
+
+/// The synthetic video of `decompose bench --video`: frame `t` of `w`×`h` is a
+/// piecewise-constant albedo (a smooth random texture cut into five levels) moved by
+/// `t ×` [`SLIDING_MOTION`], under a smooth light fixed on the screen; `I = R × S` exactly.
+pub fn sliding_albedo(w: u32, h: u32) -> impl Fn(usize) -> Image {
+    let pattern = wave_texture(7, 6, 60.0..220.0, 3.0);
+    let light = wave_texture(11, 3, 500.0..1200.0, 1.5);
+    move |t| {
+        let (dx, dy) = (SLIDING_MOTION.0 * t as f64, SLIDING_MOTION.1 * t as f64);
+        let n = SLIDING_PALETTE.len();
+        Image::from_fn(w, h, |x, y| {
+            let level = pattern(x as f64 - dx, y as f64 - dy);
+            let a = SLIDING_PALETTE[((level * n as f64) as usize).min(n - 1)];
+            let s = (0.25 + 0.75 * light(x as f64, y as f64)) as f32;
+            [a[0] * s, a[1] * s, a[2] * s]
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

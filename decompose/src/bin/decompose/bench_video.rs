@@ -7,43 +7,21 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 
-use decompose::Image;
 use decompose::io::{self, Depth, Encoding, LoadOptions};
 use decompose::process::{cpu_seconds, peak_rss_mib};
 use decompose::retinex::Strokes;
-use decompose::synthetic::wave_texture;
+use decompose::synthetic::{SLIDING_MOTION, sliding_albedo};
 use decompose::video::baseline::{PerFrameMethod, per_frame};
 use decompose::video::frames::{FrameOptions, FrameSource};
 use decompose::video::method::{VideoFrame, VideoParams, decompose_video};
 
 use crate::common::{TempDir, out};
 
-/// Albedos of the synthetic sequence's regions.
-const PALETTE: [[f32; 3]; 5] = [
-    [0.80, 0.25, 0.20],
-    [0.20, 0.60, 0.30],
-    [0.25, 0.30, 0.85],
-    [0.85, 0.80, 0.30],
-    [0.90, 0.90, 0.90],
-];
-
-/// Pixels per frame the synthetic albedo pattern moves, (right, down).
-const MOTION: (f64, f64) = (2.0, 1.0);
-
-/// Writes `n` frames of `w`×`h` into `dir` as 16-bit linear PNGs: a piecewise-constant albedo
-/// pattern (a smooth random texture cut into five levels) sliding by [`MOTION`] per frame under
-/// a smooth light fixed on the screen, `I = R × S`.
+/// Writes `n` frames of `w`×`h` of [`sliding_albedo`] into `dir` as 16-bit linear PNGs.
 fn synthetic_sequence(dir: &Path, n: usize, w: u32, h: u32) -> Result<()> {
-    let pattern = wave_texture(7, 6, 60.0..220.0, 3.0);
-    let light = wave_texture(11, 3, 500.0..1200.0, 1.5);
+    let frame_at = sliding_albedo(w, h);
     for t in 0..n {
-        let (dx, dy) = (MOTION.0 * t as f64, MOTION.1 * t as f64);
-        let frame = Image::from_fn(w, h, |x, y| {
-            let level = pattern(x as f64 - dx, y as f64 - dy);
-            let a = PALETTE[((level * PALETTE.len() as f64) as usize).min(PALETTE.len() - 1)];
-            let s = (0.25 + 0.75 * light(x as f64, y as f64)) as f32;
-            [a[0] * s, a[1] * s, a[2] * s]
-        });
+        let frame = frame_at(t);
         io::save(
             dir.join(format!("{t:06}.png")),
             &frame,
@@ -109,7 +87,7 @@ pub(crate) fn bench_video(
             };
             (
                 FrameSource::open(&dir, &opts)?,
-                format!("synthetic (albedo sliding {MOTION:?} px/frame)"),
+                format!("synthetic (albedo sliding {SLIDING_MOTION:?} px/frame)"),
             )
         }
     };
