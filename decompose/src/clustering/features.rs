@@ -1,5 +1,7 @@
 //! The {β, a, b} features of step 1 (eq. 2.2), and the chromaticity variant of (a, b).
 
+use std::borrow::Cow;
+
 use rayon::prelude::*;
 
 use super::ClusteringParams;
@@ -23,13 +25,13 @@ pub fn features(input: &Image, mask: &Mask, params: &ClusteringParams) -> Vec<[f
 /// The Lab triples the features are taken from: Lab itself, or with `chromaticity_features`
 /// its (a, b) replaced by the chromaticity of the linear RGB, which a change of illumination
 /// intensity (a cast shadow) leaves unchanged while Lab's a, b shrink with lightness.
-pub(super) fn chroma_source(
-    lab: &[[f32; 3]],
+pub(super) fn chroma_source<'a>(
+    lab: &'a [[f32; 3]],
     rgb: &[[f32; 3]],
     params: &ClusteringParams,
-) -> Vec<[f32; 3]> {
+) -> Cow<'a, [[f32; 3]]> {
     if !params.chromaticity_features {
-        return lab.to_vec();
+        return Cow::Borrowed(lab);
     }
     lab.iter()
         .zip(rgb)

@@ -125,9 +125,12 @@ impl Run<'_> {
         } else {
             None
         };
-        if n > 1 {
-            // Frame 1's flow has nothing to overlap with.
-            self.flow(0, 1, &prev_img, next_img.as_ref().unwrap_or(&prev_img))?;
+        if let Some(img1) = next_img
+            .as_ref()
+            .filter(|_| !self.scratch.has_flow(0, true))
+        {
+            // Frame 1's flow has nothing to overlap with (later passes find it cached).
+            self.flow(0, 1, &prev_img, img1)?;
         }
         for t in 1..n {
             let img = match next_img.take() {
