@@ -4,10 +4,14 @@
 //! in-sample score of the defaults, the setting chosen without it and its held-out score, then
 //! the means: the cross-validated figure is the one to compare with other methods.
 //!
-//! `cargo run --release -p decompose --example mit_cv -- ../shared/data/mit-intrinsic-dev`
+//! `cargo run --release -p decompose --example mit_cv -- ../shared/data/mit-intrinsic-dev
+//! .cache/rendered-scenes/tune` (several folders are pooled; the means are also given per
+//! folder).
 //!
-//! The grid spans the parameters that were tuned on these objects (`k`, `bridge_ratio`,
-//! `border_skip`, `border_weight_exponent`); the thesis' own parameters keep their values.
+//! The grid (144 settings) spans the choices made on these objects: the chroma features, `k`,
+//! `λ`, the robust passes and how groups of clusters cut off by the mask are levelled
+//! (`reflectance_within_groups` with `group_highlight_quantile`); every other parameter keeps
+//! its default.
 
 use rayon::prelude::*;
 
@@ -55,18 +59,20 @@ fn grid() -> Vec<(String, ClusteringParams)> {
         for k in [10, 20, 30, 45] {
             for lambda_fraction in [0.2, 0.5, 0.8] {
                 for robust_iterations in [0, 2] {
-                    for border_window in [3, 6] {
+                    for (within, quantile) in [(false, None), (true, Some(0.9)), (true, Some(0.98))]
+                    {
                         out.push((
                             format!(
                                 "chroma={chromaticity_features} k={k} lambda={lambda_fraction} \
-                                 irls={robust_iterations} window={border_window}"
+                                 irls={robust_iterations} groups={within}/{quantile:?}"
                             ),
                             ClusteringParams {
                                 chromaticity_features,
                                 k,
                                 lambda_fraction,
                                 robust_iterations,
-                                border_window,
+                                reflectance_within_groups: within,
+                                group_highlight_quantile: quantile,
                                 ..base.clone()
                             },
                         ));

@@ -88,6 +88,35 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             v
         }
+        Some("partners") => [(8usize, 2usize), (8, 1), (4, 1), (2, 1), (2, 2), (4, 2)]
+            .into_iter()
+            .map(|(n, it)| {
+                (
+                    format!("partners={n} irls={it}"),
+                    ClusteringParams {
+                        max_reflectance_partners: n,
+                        robust_iterations: it,
+                        ..base.clone()
+                    },
+                )
+            })
+            .collect(),
+        Some("groups") => {
+            let mut v = vec![("default".to_string(), base.clone())];
+            for within in [false, true] {
+                for q in [None, Some(0.9f32), Some(0.98), Some(1.0)] {
+                    v.push((
+                        format!("within={within} q={q:?}"),
+                        ClusteringParams {
+                            reflectance_within_groups: within,
+                            group_highlight_quantile: q,
+                            ..base.clone()
+                        },
+                    ));
+                }
+            }
+            v
+        }
         Some("chroma") => {
             let mut v = Vec::new();
             for chromaticity_features in [false, true] {

@@ -50,6 +50,14 @@
 //! - Reflectance equations link each cluster to at most `max_reflectance_partners` clusters of
 //!   its segment nearest in mean luminance (within `T_L`), rather than to all of them, which
 //!   keeps the normal matrix sparse on textured images with thousands of clusters.
+//! - Objects cut apart by the mask (the MIT and rendered masks drop the mixed pixels along
+//!   silhouettes) form groups of clusters that no border equation links. The thesis links
+//!   them only through eq. 2.7, to whatever other surface has the same chroma and a similar
+//!   mean luminance, or leaves each to its own gauge (eq. 2.8), which makes every isolated
+//!   single-cluster object white. Here eq. 2.7 stays inside a border-connected group, and each
+//!   group's level is set so that its 98th-percentile shading matches the largest group's:
+//!   every object is assumed lit head-on somewhere about as brightly as the main surfaces
+//!   ([`ClusteringParams::group_highlight_quantile`]).
 //! - Mixed (anti-aliased) pixels at albedo edges: the border window starts `border_skip` (2)
 //!   pixels away from the border where the cluster is thick enough. k-means also cuts thin
 //!   fringe clusters between two albedos; in a chain albedo | fringe | albedo the two border
@@ -63,6 +71,7 @@
 //! - k-means fits its centres on a seeded subsample (see [`crate::kmeans`]).
 
 mod features;
+mod groups;
 mod median;
 mod params;
 mod regions;
@@ -83,6 +92,7 @@ use crate::kmeans::{KMeansInfo, KMeansParams, kmeans};
 use crate::progress::{Progress, ProgressFn};
 use crate::solver::{SolverInfo, zero_mean_per_component};
 use features::{chroma_source, feature_from_lab};
+use groups::match_group_highlights;
 use median::median_at_borders;
 use regions::{PixelData, components8, graph, merge_similar, merge_small, merge_thin};
 
@@ -224,7 +234,7 @@ pub fn decompose(
     };
     let (mut labels, count) = components8(&seg, w, h);
     info.clusters_initial = count;
-    let count = merge_small(&mut labels, count, &px, params.min_cluster_pixels);
+    let (count, small_graph) = merge_small(&mut labels, count, &px, params.min_cluster_pixels);
     info.clusters_after_small_merge = count;
     let count = merge_thin(&mut labels, count, &px, params.thin_ratio as f64);
     info.clusters_after_thin_merge = count;
@@ -236,7 +246,12 @@ pub fn decompose(
         params.merge_threshold as f64 * max_i,
     );
     info.clusters = count;
-    let (regions, borders) = graph(&labels, count, &px);
+    // A merge that joins nothing leaves the labels as they were, so the graph of the last
+    // small-cluster round still holds when the count did not change.
+    let (regions, borders) = match small_graph {
+        Some(g) if count == info.clusters_after_small_merge => g,
+        _ => graph(&labels, count, &px),
+    };
     // Majority segment of every cluster.
     let k = params.k;
     let mut votes = vec![0u32; count * k];
@@ -300,6 +315,9 @@ pub fn decompose(
     let t = Instant::now();
     let (mut x, sinfo) = solve_robust(&sys, params)?;
     zero_mean_per_component(&mut x, &comps);
+    if let Some(q) = params.group_highlight_quantile {
+        match_group_highlights(&mut x, &comps, &labels, &y, y_floor, q);
+    }
     info.solver = sinfo;
     info.timings.solve_ms = ms(t);
 

@@ -111,7 +111,7 @@ impl Region {
 }
 
 /// Border statistics between two regions over their 4-neighbour pixel pairs.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Border {
     pub pairs: usize,
     /// Σ over pairs of the Euclidean RGB distance.
@@ -134,6 +134,18 @@ pub(crate) type Borders = Vec<((u32, u32), Border)>;
 pub(crate) fn graph(labels: &[u32], count: usize, px: &PixelData) -> (Vec<Region>, Borders) {
     let mut regions = vec![Region::default(); count];
     let mut borders: PairMap<Border> = PairMap::default();
+    // Pixel pairs of one border come in runs (a horizontal border gives one vertical pair per
+    // pixel along the row): each direction sums its current run and touches the map only when
+    // the pair of regions changes.
+    let mut runs = [((Labels::NONE, Labels::NONE), Border::default()); 2];
+    let flush = |borders: &mut PairMap<Border>, run: &mut ((u32, u32), Border)| {
+        if run.1.pairs > 0 {
+            let b = borders.entry(run.0).or_default();
+            b.pairs += run.1.pairs;
+            b.sum_diff += run.1.sum_diff;
+            run.1 = Border::default();
+        }
+    };
     for (p, &l) in labels.iter().enumerate() {
         if l == Labels::NONE {
             continue;
@@ -147,7 +159,7 @@ pub(crate) fn graph(labels: &[u32], count: usize, px: &PixelData) -> (Vec<Region
         r.sum_ab[1] += px.ab[p][1] as f64;
         r.sum_y += px.y[p] as f64;
         let x = p % px.w;
-        let mut visit = |q: usize| {
+        let mut visit = |q: usize, run: &mut ((u32, u32), Border)| {
             let m = labels[q];
             if m != Labels::NONE && m != l {
                 let key = (l.min(m), l.max(m));
@@ -155,17 +167,24 @@ pub(crate) fn graph(labels: &[u32], count: usize, px: &PixelData) -> (Vec<Region
                     .map(|c| (px.rgb[p][c] - px.rgb[q][c]).powi(2))
                     .sum::<f32>()
                     .sqrt();
-                let b = borders.entry(key).or_default();
-                b.pairs += 1;
-                b.sum_diff += d as f64;
+                if run.0 != key {
+                    flush(&mut borders, run);
+                    run.0 = key;
+                }
+                run.1.pairs += 1;
+                run.1.sum_diff += d as f64;
             }
         };
+        let [right, down] = &mut runs;
         if x + 1 < px.w {
-            visit(p + 1);
+            visit(p + 1, right);
         }
         if p + px.w < px.w * px.h {
-            visit(p + px.w);
+            visit(p + px.w, down);
         }
+    }
+    for run in &mut runs {
+        flush(&mut borders, run);
     }
     let mut borders: Vec<_> = borders.into_iter().collect();
     borders.sort_unstable_by_key(|b| b.0);
@@ -193,13 +212,14 @@ pub(crate) fn relabel(labels: &mut [u32], dsu: &mut Dsu, count: usize) -> usize 
 }
 
 /// Merges regions smaller than `min_pixels` into the adjacent region of closest mean chroma,
-/// in rounds until none is left that can be merged. Returns the new count.
+/// in rounds until none is left that can be merged. Returns the new count and, when the last
+/// round merged nothing, the graph of the final labels (so the caller need not rebuild it).
 pub(crate) fn merge_small(
     labels: &mut [u32],
     mut count: usize,
     px: &PixelData,
     min_pixels: usize,
-) -> usize {
+) -> (usize, Option<(Vec<Region>, Borders)>) {
     for _round in 0..16 {
         let (regions, borders) = graph(labels, count, px);
         let mut adj: Vec<Vec<u32>> = vec![Vec::new(); count];
@@ -226,11 +246,11 @@ pub(crate) fn merge_small(
             }
         }
         if !merged {
-            break;
+            return (count, Some((regions, borders)));
         }
         count = relabel(labels, &mut dsu, count);
     }
-    count
+    (count, None)
 }
 
 /// Merges thin regions — fewer pixels than `ratio` × their border pixel pairs, i.e. strips
@@ -281,6 +301,9 @@ pub(crate) fn merge_similar(
     px: &PixelData,
     threshold: f64,
 ) -> usize {
+    if threshold <= 0.0 {
+        return count; // no border's mean distance is below 0
+    }
     let (_, borders) = graph(labels, count, px);
     let mut dsu = Dsu::new(count);
     for ((a, b), border) in &borders {
@@ -326,7 +349,7 @@ mod tests {
             y: &y,
         };
         let mut labels = vec![0, 0, 0, 1, 2];
-        let n = merge_small(&mut labels, 3, &px, 2);
+        let (n, _) = merge_small(&mut labels, 3, &px, 2);
         assert_eq!(n, 2);
         assert_eq!(labels[3], labels[4]);
         assert_ne!(labels[0], labels[3]);

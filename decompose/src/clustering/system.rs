@@ -202,6 +202,13 @@ pub(super) fn build(
             counts.boundary += 1;
         }
     }
+    // Border-connected groups (objects cut apart by the mask or the image edge).
+    let mut group = regions::Dsu::new(count);
+    if params.reflectance_within_groups {
+        for ((a, b), _) in borders {
+            group.union(*a, *b);
+        }
+    }
     // Eq. 2.7: same-segment reflectance equalities.
     let mut by_seg: Vec<Vec<usize>> = vec![Vec::new(); k];
     for c in 0..count {
@@ -223,6 +230,10 @@ pub(super) fn build(
             {
                 if regions[b].mean_y() - regions[a].mean_y() >= t_l {
                     break;
+                }
+                if params.reflectance_within_groups && group.find(a as u32) != group.find(b as u32)
+                {
+                    continue;
                 }
                 // The paper's three equations, one per channel, share their left-hand side
                 // `x_a − x_b`: in least squares they are exactly one equation with the mean

@@ -122,13 +122,17 @@ pub(crate) fn run_bench(a: BenchArgs) -> Result<()> {
         }
         let peak = peak_rss_mib().unwrap_or(f64::NAN);
         // The same case with the defaults before issue 19's changes (Lab chroma, λ = 0.2,
-        // k = 10 at the default size, merges at D = 0.01, one plain least-squares solve).
+        // k = 10 at the default size, merges at D = 0.01, one plain least-squares solve, 16
+        // reflectance partners, the thesis' gauge for groups).
         let plain = ClusteringParams {
             k: previous_k,
             chromaticity_features: false,
             lambda_fraction: 0.2,
             robust_iterations: 0,
             merge_threshold: 0.01,
+            max_reflectance_partners: 16,
+            reflectance_within_groups: false,
+            group_highlight_quantile: None,
             ..params.clone()
         };
         let mut best_plain = f64::INFINITY;
