@@ -61,8 +61,8 @@ pub(super) fn match_group_highlights(
 mod tests {
     use super::*;
 
-    /// Two groups: the second's 0.5-quantile of log shading is moved onto the first's, and
-    /// the first (the largest) does not move.
+    /// Two groups: the second's q-quantile of log shading (q = 1, then 0) is moved onto the
+    /// first's, and the first (the largest) does not move.
     #[test]
     fn isolated_group_takes_the_main_groups_highlight_level() {
         // Clusters 0, 1 form group 0 (4 pixels); cluster 2 is group 2 (2 pixels).
@@ -83,8 +83,8 @@ mod tests {
     /// A grey floor (albedo 0.5) with a white (0.9) and a black (0.06) ball on it, each cut off
     /// from the floor by a two-pixel unmasked ring, as the masks of the rendered scenes and
     /// the MIT objects cut objects from their surroundings. Every surface is lit head-on
-    /// somewhere. The paper's gauge gives every single-cluster group the same level (all three
-    /// come out alike); matching highlights recovers the albedo ratios.
+    /// somewhere. Matching highlights recovers the albedo ratios; the thesis' handling (eq. 2.7
+    /// across groups, then the gauge of eq. 2.8) does not recover the black ball.
     #[test]
     fn isolated_white_and_black_objects_keep_their_albedo() {
         use crate::image::{Image, Mask};
