@@ -2,6 +2,7 @@
 
 use super::*;
 
+/// A tiny Gaussian elimination with partial pivoting (the dense reference).
 fn dense_solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
     let n = b.len();
     for c in 0..n {
@@ -168,7 +169,6 @@ fn poisson_blend_holds_the_dirichlet_boundary_exactly() {
     }
 }
 
-/// A still background of two albedos and a square of a new colour entering from the right.
 #[test]
 fn the_completed_region_is_the_unassigned_part_of_the_tripping_windows() {
     use super::passes::stop_region;

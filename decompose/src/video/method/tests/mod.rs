@@ -41,16 +41,19 @@ fn translating(n: usize, w: u32, h: u32, dx: i32) -> (Vec<Image>, Vec<Image>) {
     let refl: Vec<Image> = (0..n)
         .map(|t| Image::from_fn(w, h, |x, y| albedo(x as i32 - dx * t as i32, y as i32)))
         .collect();
-    let frames = refl
-        .iter()
+    (lit(&refl), refl)
+}
+
+/// The frames that the reflectances `refl` give under the fixed light [`shade`].
+fn lit(refl: &[Image]) -> Vec<Image> {
+    refl.iter()
         .map(|r| {
+            let (w, h) = r.dims();
             Image::from_fn(w, h, |x, y| {
-                let i = (y * w + x) as usize;
-                r.rgb(i).map(|v| v * shade(x, y, w, h))
+                r.rgb((y * w + x) as usize).map(|v| v * shade(x, y, w, h))
             })
         })
-        .collect();
-    (frames, refl)
+        .collect()
 }
 
 /// The defaults, with segments of at least 16 pixels instead of 256: the test frames have

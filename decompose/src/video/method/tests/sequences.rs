@@ -46,15 +46,7 @@ fn white_enters(n: usize, w: u32, h: u32) -> (Vec<Image>, Vec<Image>) {
     let refl: Vec<Image> = (0..n)
         .map(|t| Image::from_fn(w, h, |x, y| albedo(x as i32 - t as i32, y as i32)))
         .collect();
-    let frames = refl
-        .iter()
-        .map(|r| {
-            Image::from_fn(w, h, |x, y| {
-                r.rgb((y * w + x) as usize).map(|v| v * shade(x, y, w, h))
-            })
-        })
-        .collect();
-    (frames, refl)
+    (lit(&refl), refl)
 }
 
 #[test]
@@ -74,7 +66,7 @@ fn flicker_is_well_below_per_frame_retinex() {
     );
 }
 
-/// A tiny Gaussian elimination with partial pivoting (the dense reference).
+/// A still background of two albedos and a square of a new colour entering from the right.
 fn entering(n: usize, w: u32, h: u32) -> (Vec<Image>, Vec<Image>) {
     let new = [0.9f32, 0.15, 0.6];
     let refl: Vec<Image> = (0..n)
@@ -92,15 +84,7 @@ fn entering(n: usize, w: u32, h: u32) -> (Vec<Image>, Vec<Image>) {
             })
         })
         .collect();
-    let frames = refl
-        .iter()
-        .map(|r| {
-            Image::from_fn(w, h, |x, y| {
-                r.rgb((y * w + x) as usize).map(|v| v * shade(x, y, w, h))
-            })
-        })
-        .collect();
-    (frames, refl)
+    (lit(&refl), refl)
 }
 
 #[test]
