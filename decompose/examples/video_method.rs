@@ -15,7 +15,9 @@
 //! instead (no `input/` inside), runs the method alone with a sink that keeps nothing and
 //! prints its time and peak RSS (memory against length). `PER_FRAME=1` also prints every frame's
 //! [`decompose::video::method::FrameStats`]; `SCRATCH=DIR` keeps the scratch folder there;
-//! `MERGE_THRESHOLD=V` sets the segment merge threshold (default 0.1).
+//! `MERGE_THRESHOLD=V` sets the segment merge threshold (default 0.1); `NO_LEVELS=1` keeps the
+//! first frame's cluster levels (no border levelling, as in the thesis); `LEVEL_FLOOR=V` and
+//! `LEVEL_ITERATIONS=N` set [`decompose::video::method::BorderLevelParams`].
 
 use std::time::Instant;
 
@@ -95,6 +97,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => tempfile_dir()?,
     };
     let mut params = VideoParams::default();
+    if std::env::var_os("NO_LEVELS").is_some() {
+        params.levels = None;
+    }
+    if let (Some(l), Some(v)) = (params.levels.as_mut(), std::env::var_os("LEVEL_FLOOR")) {
+        l.residual_floor = v.to_string_lossy().parse()?;
+    }
+    if let (Some(l), Some(v)) = (params.levels.as_mut(), std::env::var_os("LEVEL_ITERATIONS")) {
+        l.iterations = v.to_string_lossy().parse()?;
+    }
     if let Some(v) = std::env::var_os("MERGE_THRESHOLD") {
         params.merge.threshold = v.to_string_lossy().parse()?;
     }

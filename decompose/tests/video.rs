@@ -64,6 +64,18 @@ fn video_writes_every_layer_of_every_frame_and_the_product_is_the_input() {
         serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
     assert_eq!(stats["frames"].as_array().unwrap().len(), 8);
     let clusters = stats["clusters"].as_u64().unwrap() as usize;
+    // The border levelling ran: touching pairs of clusters exist in a scene of several albedos.
+    assert!(
+        stats["levels"]["pairs"].as_u64().unwrap() >= 1,
+        "{}",
+        stats["levels"]
+    );
+    assert!(
+        stats["levels"]["mean_abs_offset"]
+            .as_f64()
+            .unwrap()
+            .is_finite()
+    );
     for (i, name) in frames.iter().enumerate() {
         for sub in ["reflectance", "shading"] {
             assert!(out.join(sub).join(name).exists(), "{sub}/{name}");

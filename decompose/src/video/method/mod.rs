@@ -134,6 +134,7 @@
 
 mod complete;
 mod first;
+mod levels;
 mod passes;
 mod residual;
 mod sink;
@@ -157,6 +158,7 @@ use crate::video::{
     segment::reflectance_clusters,
 };
 
+pub use levels::{BorderLevelParams, LevelSummary};
 pub use sink::{FrameSink, FrameStats, OwnedFrame, VideoFrame, VideoStats};
 pub use state::PixelSource;
 
@@ -187,6 +189,10 @@ pub struct VideoParams {
     /// the local decomposition of eq. 3.8 (Chebyshev distance). Not given by the issue;
     /// default 5.
     pub completion_margin: u32,
+    /// After the passes, each cluster's level over the whole video from the shading's
+    /// continuity across cluster borders in every frame (module `levels`; not in the thesis).
+    /// `None` keeps the first frame's levels, as the thesis does. Default on.
+    pub levels: Option<BorderLevelParams>,
     /// The ablations of Fig. 3.11; default none.
     pub ablation: Ablation,
 }
@@ -201,6 +207,7 @@ impl Default for VideoParams {
             propagate: PropagateParams::default(),
             lambda_c: 1000.0,
             completion_margin: 5,
+            levels: Some(BorderLevelParams::default()),
             ablation: Ablation::default(),
         }
     }
@@ -214,6 +221,9 @@ impl VideoParams {
         self.merge.validate()?;
         self.flow.validate()?;
         self.propagate.validate()?;
+        if let Some(levels) = &self.levels {
+            levels.validate()?;
+        }
         if !(self.lambda_c.is_finite() && self.lambda_c > 0.0) {
             return Err(Error::param(
                 "lambda_c",
@@ -305,7 +315,7 @@ pub fn decompose_video(
             run.forward_pass(pass, progress)?;
         }
     }
-    sink::output(&mut run, sink, progress)?;
+    let levels = sink::output(&mut run, strokes, sink, progress)?;
     let mut stopping = std::mem::take(&mut run.stopping);
     stopping.sort_unstable();
     stopping.dedup();
@@ -315,5 +325,6 @@ pub fn decompose_video(
         stopping_frames: stopping,
         first_frame_ms,
         total_ms: t_start.elapsed().as_secs_f64() * 1e3,
+        levels,
     })
 }

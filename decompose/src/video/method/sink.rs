@@ -6,11 +6,14 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::color::luminance;
 use crate::decomposition::Labels;
 use crate::error::Result;
 use crate::image::Image;
 use crate::progress::{Progress, ProgressFn};
+use crate::retinex::Strokes;
 
+use super::levels::{self, LevelSummary};
 use super::passes;
 use super::residual;
 use super::state::PixelSource;
@@ -106,21 +109,34 @@ pub struct VideoStats {
     pub total_ms: f64,
     /// Number of clusters at the end (first frame's plus those made by completion).
     pub clusters: usize,
+    /// The border levelling (module `levels`): pairs of touching clusters, mean |offset| (natural
+    /// log), milliseconds of the solve; zeros when it is off.
+    pub levels: LevelSummary,
 }
 
-/// The residual fill (eq. 3.11) and the sink, frame by frame; fills in the fractions.
+/// The residual fill (eq. 3.11) of every frame, the border levelling (module `levels`) over
+/// all of them, then the sink, frame by frame; fills in the fractions.
 pub(crate) fn output(
     run: &mut passes::Run,
+    strokes: &Strokes,
     sink: &mut dyn FrameSink,
     progress: ProgressFn,
-) -> Result<()> {
+) -> Result<LevelSummary> {
     let n = run.source.len();
     let dims = run.source.size();
+    let mut evidence = levels::BorderEvidence::default();
     for t in 0..n {
         let img = run.source.frame(t)?;
         let mut st = run.scratch.load_state(t, dims)?;
         let t0 = Instant::now();
         residual::fill_residual(&img, &mut st, &run.params.retinex.solver)?;
+        if run.params.levels.is_some() {
+            evidence.add_frame(dims.0 as usize, &st.labels, &st.shading);
+            if t == 0 {
+                let lum: Vec<f32> = (0..st.len()).map(|i| luminance(img.rgb(i))).collect();
+                evidence.add_strokes(dims.0 as usize, &st.labels, &st.shading, &lum, strokes);
+            }
+        }
         run.stats[t].complete_ms += t0.elapsed().as_secs_f64() * 1e3;
         let frac = |kind| st.source.iter().filter(|&&s| s == kind).count() as f64 / st.len() as f64;
         let fs = &mut run.stats[t];
@@ -129,19 +145,53 @@ pub(crate) fn output(
         fs.residual = frac(PixelSource::Residual);
         // The final state stays in the scratch folder (every pixel assigned).
         run.scratch.save_state(t, &st)?;
+        progress(Progress {
+            stage: "output",
+            fraction: 1.0 - passes::OUTPUT_SHARE * (1.0 - (t + 1) as f32 / (2 * n) as f32),
+        });
+    }
+    let clusters = run.tables.cluster_count();
+    let t0 = Instant::now();
+    let mut delta = match &run.params.levels {
+        Some(p) => evidence.offsets(clusters, p)?,
+        None => Vec::new(),
+    };
+    if !delta.is_empty() {
+        // Back on the first frame's scale: its 99.5th percentile of reflectance is 1 again.
+        let img = run.source.frame(0)?;
+        let mut st = run.scratch.load_state(0, dims)?;
+        levels::apply(&st.labels, &mut st.shading, &delta);
+        if let Some(q) = levels::white_point(&st.reflectance(&img)) {
+            delta.iter_mut().for_each(|d| *d -= f64::from(q).ln());
+        }
+    }
+    let summary = LevelSummary {
+        ms: t0.elapsed().as_secs_f64() * 1e3,
+        pairs: evidence.pair_count(),
+        mean_abs_offset: if delta.is_empty() {
+            0.0
+        } else {
+            delta.iter().map(|d| d.abs()).sum::<f64>() / delta.len() as f64
+        },
+    };
+    drop(evidence);
+    for t in 0..n {
+        let img = run.source.frame(t)?;
+        let mut st = run.scratch.load_state(t, dims)?;
+        levels::apply(&st.labels, &mut st.shading, &delta);
         let reflectance = st.reflectance(&img);
         let shading = Image::from_vec(dims.0, dims.1, 1, std::mem::take(&mut st.shading))?;
-        let clusters = st.labels(run.tables.cluster_count());
+        let labels = st.labels(clusters);
         sink.frame(VideoFrame {
             index: t,
             reflectance: &reflectance,
             shading: &shading,
-            clusters: &clusters,
+            clusters: &labels,
         })?;
         progress(Progress {
             stage: "output",
-            fraction: 1.0 - passes::OUTPUT_SHARE * (1.0 - (t + 1) as f32 / n as f32),
+            fraction: 1.0 - passes::OUTPUT_SHARE * (1.0 - (n + t + 1) as f32 / (2 * n) as f32),
         });
     }
-    Ok(())
+    Ok(summary)
 }

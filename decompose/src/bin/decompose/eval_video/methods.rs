@@ -41,7 +41,7 @@ impl Runner {
 }
 
 /// The runs asked for: the methods in a fixed order, then with `ablations` the three
-/// ablations of Fig. 3.11.
+/// ablations of Fig. 3.11 and the method without its border levelling (the thesis' levels).
 pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
     let mut wanted: Vec<VideoMethod> = if methods.is_empty() || methods.contains(&VideoMethod::All)
     {
@@ -90,6 +90,13 @@ pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
                 "ours, no optical flow",
                 with(Ablation {
                     no_optical_flow: true,
+                    ..Default::default()
+                }),
+            ),
+            Runner::Ours(
+                "ours, first-frame levels (thesis)",
+                Box::new(VideoParams {
+                    levels: None,
                     ..Default::default()
                 }),
             ),

@@ -36,7 +36,8 @@ pub(crate) struct EvalVideoArgs {
     #[arg(long = "method", value_enum, value_delimiter = ',')]
     methods: Vec<VideoMethod>,
     /// Also the three ablations of the video method (thesis Fig. 3.11): completion on every
-    /// frame, no confidence threshold, no optical flow.
+    /// frame, no confidence threshold, no optical flow; and the method with the thesis'
+    /// first-frame cluster levels (no border levelling).
     #[arg(long)]
     ablations: bool,
     /// Write every figure (with the per-frame LMSE curves) as JSON.

@@ -142,4 +142,5 @@ fn per_frame_retinex(frames: &[Image]) -> Vec<crate::Decomposition> {
 
 mod equations;
 mod fixture;
+mod levels;
 mod sequences;
