@@ -17,7 +17,8 @@
 //! [`decompose::video::method::FrameStats`]; `SCRATCH=DIR` keeps the scratch folder there;
 //! `MERGE_THRESHOLD=V` sets the segment merge threshold (default 0.1); `NO_LEVELS=1` keeps the
 //! first frame's cluster levels (no border levelling, as in the thesis); `LEVEL_FLOOR=V` and
-//! `LEVEL_ITERATIONS=N` set [`decompose::video::method::BorderLevelParams`].
+//! `LEVEL_ITERATIONS=N` set [`decompose::video::method::BorderLevelParams`]; `EPSILON=V` and
+//! `BETA=V` the confidence test of §3.5.2 (`ε`, `β`).
 
 use std::time::Instant;
 
@@ -105,6 +106,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let (Some(l), Some(v)) = (params.levels.as_mut(), std::env::var_os("LEVEL_ITERATIONS")) {
         l.iterations = v.to_string_lossy().parse()?;
+    }
+    if let Some(v) = std::env::var_os("EPSILON") {
+        params.propagate.epsilon = v.to_string_lossy().parse()?;
+    }
+    if let Some(v) = std::env::var_os("BETA") {
+        params.propagate.beta = v.to_string_lossy().parse()?;
     }
     if let Some(v) = std::env::var_os("MERGE_THRESHOLD") {
         params.merge.threshold = v.to_string_lossy().parse()?;

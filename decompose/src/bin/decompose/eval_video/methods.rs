@@ -8,6 +8,7 @@ use decompose::retinex::Strokes;
 use decompose::video::baseline::{PerFrameMethod, per_frame};
 use decompose::video::frames::FrameSource;
 use decompose::video::method::{Ablation, VideoFrame, VideoParams, decompose_video};
+use decompose::video::propagate::PropagateParams;
 
 use crate::common::TempDir;
 
@@ -41,7 +42,8 @@ impl Runner {
 }
 
 /// The runs asked for: the methods in a fixed order, then with `ablations` the three
-/// ablations of Fig. 3.11 and the method without its border levelling (the thesis' levels).
+/// ablations of Fig. 3.11, the method without its border levelling (the thesis' levels) and
+/// with the thesis' confidence test.
 pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
     let mut wanted: Vec<VideoMethod> = if methods.is_empty() || methods.contains(&VideoMethod::All)
     {
@@ -97,6 +99,13 @@ pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
                 "ours, first-frame levels (thesis)",
                 Box::new(VideoParams {
                     levels: None,
+                    ..Default::default()
+                }),
+            ),
+            Runner::Ours(
+                "ours, thesis' ε = 0.8, β = 2",
+                Box::new(VideoParams {
+                    propagate: PropagateParams::default(),
                     ..Default::default()
                 }),
             ),

@@ -64,7 +64,8 @@ fn fixture_scores() -> (f64, f64, f64, f64) {
     )
 }
 
-/// Measured 2026-12-04: flicker 0.0275 against 0.0902 for per-frame Retinex.
+/// Measured 2026-12-04: flicker 0.0275 against 0.0902 for per-frame Retinex; 2026-12-05 with
+/// the defaults of that day (border levelling, `ε` = 0.3, `β` = 1): 0.0263.
 #[test]
 fn flicker_is_below_per_frame_retinex_on_the_rendered_fixture() {
     let (_, _, ours, theirs) = fixture_scores();
@@ -74,16 +75,15 @@ fn flicker_is_below_per_frame_retinex_on_the_rendered_fixture() {
     );
 }
 
-/// The fixture is a tie on LMSE: measured 2026-12-04 (the thesis' levels) 0.0802 against
-/// 0.0803 for per-frame Retinex (frame 0 is the same decomposition, 0.0764); 2026-12-05 with
-/// the border levelling 0.0806 (its offsets there are below 0.01: four clusters, little
-/// motion). The goal (strictly lower) is therefore not asserted here; this guards the
-/// tie: a change that loses more than 1% to per-frame Retinex on the fixture fails.
+/// The goal on the fixture. Measured: 2026-12-04 (the thesis' levels and `ε`, `β`)
+/// 0.0802 against 0.0803 for per-frame Retinex (frame 0 is the same decomposition, 0.0764);
+/// 2026-12-05 with the border levelling alone 0.0806 (its offsets there are below 0.01), and
+/// with the levelling and `ε` = 0.3, `β` = 1 (the defaults) 0.0791.
 #[test]
-fn lmse_stays_within_one_percent_of_per_frame_retinex_on_the_rendered_fixture() {
+fn lmse_is_below_per_frame_retinex_on_the_rendered_fixture() {
     let (ours, theirs, _, _) = fixture_scores();
     assert!(
-        ours < 1.01 * theirs,
+        ours < theirs,
         "LMSE: ours {ours:.4}, per-frame Retinex {theirs:.4}"
     );
 }
