@@ -156,8 +156,14 @@ pub(crate) fn output(
         Some(p) => evidence.offsets(clusters, p)?,
         None => Vec::new(),
     };
+    let mean_abs_offset = if delta.is_empty() {
+        0.0
+    } else {
+        delta.iter().map(|d| d.abs()).sum::<f64>() / delta.len() as f64
+    };
     if !delta.is_empty() {
-        // Back on the first frame's scale: its 99.5th percentile of reflectance is 1 again.
+        // Back on the first frame's scale: its 99.5th percentile of reflectance is 1 again
+        // (one factor for the whole video, left out of `mean_abs_offset`).
         let img = run.source.frame(0)?;
         let mut st = run.scratch.load_state(0, dims)?;
         levels::apply(&st.labels, &mut st.shading, &delta);
@@ -168,11 +174,7 @@ pub(crate) fn output(
     let summary = LevelSummary {
         ms: t0.elapsed().as_secs_f64() * 1e3,
         pairs: evidence.pair_count(),
-        mean_abs_offset: if delta.is_empty() {
-            0.0
-        } else {
-            delta.iter().map(|d| d.abs()).sum::<f64>() / delta.len() as f64
-        },
+        mean_abs_offset,
     };
     drop(evidence);
     for t in 0..n {

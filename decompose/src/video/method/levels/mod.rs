@@ -28,13 +28,18 @@
 //! of the reflectance) back at 1, as before the levelling.
 //!
 //! The user's strokes on the first frame stay true: two touching clusters inside one
-//! constant-shading stroke keep the shading step the first frame's Retinex gave them there
-//! (about zero), and inside one constant-albedo stroke the reflectance step; these pairs
-//! weigh [`STROKE_WEIGHT`] times all the border evidence together.
+//! constant-shading stroke get equal shading across their border there, and inside one
+//! constant-albedo stroke equal reflectance; these pairs weigh [`STROKE_WEIGHT`] times all the
+//! border evidence together.
 //!
-//! Memory: one histogram of [`BINS`] counters per touching pair, whatever the length.
+//! Memory: one histogram (512 counts and sums, 4 KiB) per touching pair, whatever the
+//! length of the video.
 
 use std::collections::HashMap;
+
+mod histogram;
+
+use histogram::Histogram;
 
 use crate::decomposition::Labels;
 use crate::error::{Error, Result};
@@ -42,9 +47,6 @@ use crate::image::Image;
 use crate::retinex::Strokes;
 use crate::solver::{LinearSystem, SolverParams};
 
-/// Bins of a border histogram, over `ln S_p − ln S_q` in `[−RANGE, RANGE]`.
-pub(crate) const BINS: usize = 512;
-const RANGE: f64 = 4.0;
 /// Weight of the stroke equations relative to the whole border evidence (which sums to 1).
 pub(crate) const STROKE_WEIGHT: f64 = 1e3;
 
@@ -105,11 +107,6 @@ pub(crate) struct BorderEvidence {
     sizes: Vec<u64>,
 }
 
-fn bin_of(d: f64) -> usize {
-    let u = (d + RANGE) / (2.0 * RANGE) * BINS as f64;
-    (u.max(0.0) as usize).min(BINS - 1)
-}
-
 impl BorderEvidence {
     /// Adds one frame: `labels` per pixel ([`Labels::NONE`] where none), `shading` linear grey.
     pub fn add_frame(&mut self, width: usize, labels: &[u32], shading: &[f32]) {
@@ -150,9 +147,10 @@ impl BorderEvidence {
     }
 
     /// Adds the first frame's strokes: for touching pixels `p`, `q` of different clusters
-    /// inside one constant-shading mask, `δ_a − δ_b = ln S_p − ln S_q` (keep the shading step);
-    /// inside one constant-albedo mask, `δ_a − δ_b = ln ρ_q − ln ρ_p` with `ρ = lum(I) / S`
-    /// (make the reflectance step zero). `input_lum` is the luminance of the input frame.
+    /// inside one constant-shading mask, `δ_a − δ_b = ln S_p − ln S_q` (equal shading after
+    /// the offsets); inside one constant-albedo mask, `δ_a − δ_b = ln ρ_q − ln ρ_p` with
+    /// `ρ = lum(I) / S` (equal reflectance after the offsets). `input_lum` is the luminance of
+    /// the input frame.
     pub fn add_strokes(
         &mut self,
         width: usize,
@@ -276,50 +274,6 @@ fn medians(map: &HashMap<(u32, u32), Box<Histogram>>) -> Vec<(u32, u32, f64, u64
     out
 }
 
-/// Counts and sums of samples in [`BINS`] bins over `[−RANGE, RANGE]` (values beyond fall in
-/// the end bins).
-#[derive(Clone, Debug)]
-pub(crate) struct Histogram {
-    count: [u32; BINS],
-    sum: [f32; BINS],
-}
-
-impl Default for Histogram {
-    fn default() -> Self {
-        Self {
-            count: [0; BINS],
-            sum: [0.0; BINS],
-        }
-    }
-}
-
-impl Histogram {
-    fn add(&mut self, d: f64) {
-        let b = bin_of(d);
-        self.count[b] += 1;
-        self.sum[b] += d as f32;
-    }
-
-    fn samples(&self) -> u64 {
-        self.count.iter().map(|&c| u64::from(c)).sum()
-    }
-
-    /// The median, as the mean of the samples in the bin that holds it (exact when they are
-    /// all equal, within a bin's width of `2·RANGE / BINS` otherwise); 0 when empty.
-    fn median(&self) -> f64 {
-        let half = self.samples() as f64 / 2.0;
-        let mut below = 0.0;
-        for (&c, &s) in self.count.iter().zip(&self.sum) {
-            let c = f64::from(c);
-            if c > 0.0 && below + c >= half {
-                return f64::from(s) / c;
-            }
-            below += c;
-        }
-        0.0
-    }
-}
-
 /// Applies the offsets to one frame's shading: `S ← S·e^{−δ_k}` for its cluster `k`.
 pub(crate) fn apply(labels: &[u32], shading: &mut [f32], delta: &[f64]) {
     for (s, &l) in shading.iter_mut().zip(labels) {
@@ -345,96 +299,4 @@ pub(crate) fn white_point(reflectance: &Image) -> Option<f32> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Two clusters side by side, the right one's shading `e^{−step}` of the left one's on
-    /// every frame: the left cluster's offset is `step` relative to the right one's, and then the
-    /// shading is continuous across the border.
-    #[test]
-    fn a_step_at_a_cluster_border_becomes_reflectance() {
-        let (w, h) = (8usize, 4usize);
-        let labels: Vec<u32> = (0..w * h).map(|i| u32::from(i % w >= 3)).collect();
-        let mut ev = BorderEvidence::default();
-        let step = 0.7f64;
-        let mut shading: Vec<f32> = labels
-            .iter()
-            .map(|&l| {
-                if l == 0 {
-                    0.8
-                } else {
-                    (0.8 * (-step).exp()) as f32
-                }
-            })
-            .collect();
-        ev.add_frame(w, &labels, &shading);
-        let delta = ev.offsets(2, &BorderLevelParams::default()).unwrap();
-        // Cluster 1 is the larger (5 columns against 3): the gauge keeps its level.
-        assert!(delta[1].abs() < 1e-12, "{delta:?}");
-        assert!((delta[0] - step).abs() < 1e-6, "{delta:?}");
-        apply(&labels, &mut shading, &delta);
-        let (s0, s1) = (shading[2], shading[3]);
-        assert!((s0 / s1 - 1.0).abs() < 0.02, "{s0} {s1}");
-    }
-
-    /// One border of three with a real shading jump (an occlusion): the L1 fit follows the
-    /// consistent majority of the loop, least squares would split the disagreement.
-    #[test]
-    fn the_l1_fit_ignores_one_inconsistent_border() {
-        let mut ev = BorderEvidence::default();
-        // Pairs (0,1): 0.3, (1,2): 0.2, and (0,2): 1.5 with fewer samples (0.5 would close the
-        // loop), written as one-row frames.
-        for (a, b, d, n) in [(0u32, 1u32, 0.3f64, 50), (1, 2, 0.2, 50), (0, 2, 1.5, 20)] {
-            for _ in 0..n {
-                ev.add_frame(2, &[a, b], &[1.0, (-d).exp() as f32]);
-            }
-        }
-        // Make cluster 2 the largest (gauge).
-        ev.add_frame(40, &[2; 40], &[1.0; 40]);
-        let l1 = BorderLevelParams {
-            residual_floor: 1e-3,
-            ..Default::default()
-        };
-        let d = ev.offsets(3, &l1).unwrap();
-        assert_eq!(d[2], 0.0);
-        let res = [d[0] - d[1] - 0.3, d[1] - d[2] - 0.2, d[0] - d[2] - 1.5];
-        // The L1 optimum puts the whole loop error (1.0) on the least-sampled border; least
-        // squares would spread it over all three.
-        assert!(res[0].abs() < 0.03 && res[1].abs() < 0.03, "{res:?}");
-        assert!((res[2] + 1.0).abs() < 0.03, "{res:?}");
-    }
-
-    #[test]
-    fn clusters_that_touch_nothing_keep_their_level() {
-        let mut ev = BorderEvidence::default();
-        ev.add_frame(2, &[0, 1], &[1.0, 0.5]);
-        ev.add_frame(1, &[2], &[0.3]);
-        let d = ev.offsets(4, &BorderLevelParams::default()).unwrap();
-        assert_eq!(d[2], 0.0);
-        assert_eq!(d[3], 0.0);
-        assert!((d[0] - d[1] - 2f64.ln()).abs() < 0.02, "{d:?}");
-    }
-
-    #[test]
-    fn the_median_of_a_histogram() {
-        let mut h = Histogram::default();
-        for d in [-0.5, 0.1, 0.1, 0.1, 2.0, 9.0] {
-            h.add(d);
-        }
-        assert_eq!(h.samples(), 6);
-        assert!((h.median() - 0.1).abs() < 1e-6, "{}", h.median());
-        h.add(0.105);
-        h.add(0.11);
-        let m = h.median();
-        assert!((m - 0.1).abs() < 2.0 * RANGE / BINS as f64, "{m}");
-        assert_eq!(Histogram::default().median(), 0.0);
-        assert!(
-            BorderLevelParams {
-                residual_floor: 0.0,
-                ..Default::default()
-            }
-            .validate()
-            .is_err()
-        );
-    }
-}
+mod tests;
