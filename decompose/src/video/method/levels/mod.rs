@@ -121,29 +121,16 @@ impl BorderEvidence {
             }
             self.sizes[l as usize] += 1;
         }
-        let height = labels.len() / width.max(1);
-        for y in 0..height {
-            for x in 0..width {
-                let i = y * width + x;
-                if !valid(i) {
-                    continue;
-                }
-                let right = (x + 1 < width).then_some(i + 1);
-                let down = (y + 1 < height).then_some(i + width);
-                for j in [right, down].into_iter().flatten() {
-                    let (a, b) = (labels[i], labels[j]);
-                    if a == b || !valid(j) {
-                        continue;
-                    }
-                    let (key, d) = if a < b {
-                        ((a, b), log_s(i) - log_s(j))
-                    } else {
-                        ((b, a), log_s(j) - log_s(i))
-                    };
-                    self.pairs.entry(key).or_default().add(d);
-                }
-            }
-        }
+        let pairs = &mut self.pairs;
+        border_pairs(width, labels, &valid, |i, j| {
+            let (a, b) = (labels[i], labels[j]);
+            let (key, d) = if a < b {
+                ((a, b), log_s(i) - log_s(j))
+            } else {
+                ((b, a), log_s(j) - log_s(i))
+            };
+            pairs.entry(key).or_default().add(d);
+        });
     }
 
     /// Adds the first frame's strokes: for touching pixels `p`, `q` of different clusters
@@ -162,37 +149,25 @@ impl BorderEvidence {
         let log_s = |i: usize| f64::from(shading[i]).ln();
         let log_r = |i: usize| f64::from(input_lum[i].max(1e-6)).ln() - log_s(i);
         let valid = |i: usize| labels[i] != Labels::NONE && shading[i] > 0.0;
-        let height = labels.len() / width.max(1);
         let kinds = [
             (&strokes.constant_shading, true),
             (&strokes.constant_albedo, false),
         ];
-        for (masks, keep_shading) in kinds {
+        for (masks, equal_shading) in kinds {
             for mask in masks.iter() {
-                for y in 0..height {
-                    for x in 0..width {
-                        let i = y * width + x;
-                        if !(mask.at(i) && valid(i)) {
-                            continue;
-                        }
-                        let right = (x + 1 < width).then_some(i + 1);
-                        let down = (y + 1 < height).then_some(i + width);
-                        for j in [right, down].into_iter().flatten() {
-                            let (a, b) = (labels[i], labels[j]);
-                            if a == b || !(mask.at(j) && valid(j)) {
-                                continue;
-                            }
-                            // δ_i's cluster − δ_j's cluster:
-                            let d = if keep_shading {
-                                log_s(i) - log_s(j)
-                            } else {
-                                log_r(j) - log_r(i)
-                            };
-                            let (key, d) = if a < b { ((a, b), d) } else { ((b, a), -d) };
-                            self.strokes.entry(key).or_default().add(d);
-                        }
-                    }
-                }
+                let inside = |i: usize| mask.at(i) && valid(i);
+                let pairs = &mut self.strokes;
+                border_pairs(width, labels, &inside, |i, j| {
+                    // (δ of i's cluster) − (δ of j's cluster):
+                    let d = if equal_shading {
+                        log_s(i) - log_s(j)
+                    } else {
+                        log_r(j) - log_r(i)
+                    };
+                    let (a, b) = (labels[i], labels[j]);
+                    let (key, d) = if a < b { ((a, b), d) } else { ((b, a), -d) };
+                    pairs.entry(key).or_default().add(d);
+                });
             }
         }
     }
@@ -261,6 +236,32 @@ impl BorderEvidence {
             *d -= s;
         }
         Ok(delta)
+    }
+}
+
+/// Calls `f(i, j)` for every pair of 4-neighbours (`j` right of or below `i`) with different
+/// labels, both `valid`.
+fn border_pairs(
+    width: usize,
+    labels: &[u32],
+    valid: &dyn Fn(usize) -> bool,
+    mut f: impl FnMut(usize, usize),
+) {
+    let height = labels.len() / width.max(1);
+    for y in 0..height {
+        for x in 0..width {
+            let i = y * width + x;
+            if !valid(i) {
+                continue;
+            }
+            let right = (x + 1 < width).then_some(i + 1);
+            let down = (y + 1 < height).then_some(i + width);
+            for j in [right, down].into_iter().flatten() {
+                if labels[i] != labels[j] && valid(j) {
+                    f(i, j);
+                }
+            }
+        }
     }
 }
 
