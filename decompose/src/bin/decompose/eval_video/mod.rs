@@ -22,6 +22,9 @@ use frames::{Flows, first_frames};
 use methods::VideoMethod;
 use methods::{Runner, run_method, runners};
 
+/// Width of the method column of the printed tables (the longest row name fits).
+const NAME_WIDTH: usize = 34;
+
 #[derive(Args)]
 pub(crate) struct EvalVideoArgs {
     /// A sequence folder in the layout of docs/video-data.md (input/, reflectance/, shading/,
@@ -202,7 +205,7 @@ pub(crate) fn run_eval_video(a: EvalVideoArgs) -> Result<()> {
                     .collect();
                 let k = rows.len().max(1) as f64;
                 table += &format!(
-                    "{:<30} {:>10.5} {:>10.5} {:>10.3}\n",
+                    "{:<NAME_WIDTH$} {:>10.5} {:>10.5} {:>10.3}\n",
                     r.name(),
                     rows.iter().map(|r| r.scores.lmse).sum::<f64>() / k,
                     rows.iter().map(|r| r.scores.flicker).sum::<f64>() / k,
@@ -310,7 +313,7 @@ fn evaluate(
     }
     pb.finish_and_clear();
     let mut table = format!(
-        "\n{name}: {n} frames of {w}x{h}, flicker along the {}\n{:<30} {:>10} {:>10} {:>10}\n",
+        "\n{name}: {n} frames of {w}x{h}, flicker along the {}\n{:<NAME_WIDTH$} {:>10} {:>10} {:>10}\n",
         flows.describe(),
         "method",
         "mean LMSE",
@@ -325,7 +328,7 @@ fn evaluate(
             format!("{:>10}", "-")
         };
         let spf = spf.map_or_else(|| format!("{:>10}", "-"), |v| format!("{v:>10.3}"));
-        table += &format!("{label:<30} {lmse} {:>10.5} {spf}\n", s.flicker);
+        table += &format!("{label:<NAME_WIDTH$} {lmse} {:>10.5} {spf}\n", s.flicker);
     }
     let contact_sheet = match sheet_file {
         Some(file) => {
