@@ -235,6 +235,10 @@ impl BorderEvidence {
         for (d, s) in delta.iter_mut().zip(shift) {
             *d -= s;
         }
+        // A degenerate solve must not put NaN into every frame: keep the first frame's levels.
+        if delta.iter().any(|d| !d.is_finite()) {
+            return Ok(vec![0.0; clusters]);
+        }
         Ok(delta)
     }
 }
