@@ -55,20 +55,9 @@ impl Decomposition {
     /// Rescales so the 99.5th percentile of the per-pixel maximum reflectance channel inside the
     /// mask is 1, moving the inverse factor into the shading (the product is unchanged).
     pub fn normalise(&mut self, mask: &Mask) {
-        let mut v: Vec<f32> = (0..self.reflectance.len())
-            .filter(|&i| mask.at(i))
-            .map(|i| self.reflectance.px(i).iter().copied().fold(0.0, f32::max))
-            .filter(|v| v.is_finite() && *v > 0.0)
-            .collect();
-        if v.is_empty() {
+        let Some(q) = white_point(&self.reflectance, |i| mask.at(i)) else {
             return;
-        }
-        let k = ((v.len() - 1) as f64 * 0.995).round() as usize;
-        let (_, q, _) = v.select_nth_unstable_by(k, f32::total_cmp);
-        let q = *q;
-        if !(q.is_finite() && q > 0.0) {
-            return;
-        }
+        };
         for i in 0..self.reflectance.len() {
             if mask.at(i) {
                 self.reflectance.px_mut(i).iter_mut().for_each(|r| *r /= q);
@@ -86,6 +75,22 @@ impl Decomposition {
         }
         out
     }
+}
+
+/// The white point of [`Decomposition::normalise`]: the 99.5th percentile of the per-pixel
+/// largest reflectance channel over the pixels where `inside(i)`, if positive and finite.
+pub(crate) fn white_point(reflectance: &Image, inside: impl Fn(usize) -> bool) -> Option<f32> {
+    let mut v: Vec<f32> = (0..reflectance.len())
+        .filter(|&i| inside(i))
+        .map(|i| reflectance.px(i).iter().copied().fold(0.0, f32::max))
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
+    if v.is_empty() {
+        return None;
+    }
+    let k = ((v.len() - 1) as f64 * 0.995).round() as usize;
+    let (_, q, _) = v.select_nth_unstable_by(k, f32::total_cmp);
+    (q.is_finite() && *q > 0.0).then_some(*q)
 }
 
 /// Per-pixel labels (clusters or segments); [`Labels::NONE`] marks pixels outside the mask.

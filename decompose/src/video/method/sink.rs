@@ -7,7 +7,7 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::color::luminance;
-use crate::decomposition::Labels;
+use crate::decomposition::{Labels, white_point};
 use crate::error::Result;
 use crate::image::Image;
 use crate::progress::{Progress, ProgressFn};
@@ -161,16 +161,6 @@ pub(crate) fn output(
     } else {
         delta.iter().map(|d| d.abs()).sum::<f64>() / delta.len() as f64
     };
-    if !delta.is_empty() {
-        // Back on the first frame's scale: its 99.5th percentile of reflectance is 1 again
-        // (one factor for the whole video, left out of `mean_abs_offset`).
-        let img = run.source.frame(0)?;
-        let mut st = run.scratch.load_state(0, dims)?;
-        levels::apply(&st.labels, &mut st.shading, &delta);
-        if let Some(q) = levels::white_point(&st.reflectance(&img)) {
-            delta.iter_mut().for_each(|d| *d -= f64::from(q).ln());
-        }
-    }
     let summary = LevelSummary {
         ms: t0.elapsed().as_secs_f64() * 1e3,
         pairs: evidence.pair_count(),
@@ -181,6 +171,14 @@ pub(crate) fn output(
         let img = run.source.frame(t)?;
         let mut st = run.scratch.load_state(t, dims)?;
         levels::apply(&st.labels, &mut st.shading, &delta);
+        if t == 0 && !delta.is_empty() {
+            // Back on the first frame's scale: its 99.5th percentile of reflectance is 1 again
+            // (one factor for the whole video, left out of `mean_abs_offset`).
+            if let Some(q) = white_point(&st.reflectance(&img), |_| true) {
+                delta.iter_mut().for_each(|d| *d -= f64::from(q).ln());
+                st.shading.iter_mut().for_each(|s| *s *= q);
+            }
+        }
         let reflectance = st.reflectance(&img);
         let shading = Image::from_vec(dims.0, dims.1, 1, std::mem::take(&mut st.shading))?;
         let labels = st.labels(clusters);

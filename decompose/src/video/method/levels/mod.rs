@@ -43,7 +43,6 @@ use histogram::Histogram;
 
 use crate::decomposition::Labels;
 use crate::error::{Error, Result};
-use crate::image::Image;
 use crate::retinex::Strokes;
 use crate::solver::{LinearSystem, SolverParams};
 
@@ -177,17 +176,12 @@ impl BorderEvidence {
         self.pairs.len()
     }
 
-    /// Per touching pair `(a, b, median of ln S_a − ln S_b, samples)`, sorted by pair.
-    pub fn medians(&self) -> Vec<(u32, u32, f64, u64)> {
-        medians(&self.pairs)
-    }
-
     /// The offsets `δ` (natural log, one per cluster up to `clusters`) of the module docs.
     pub fn offsets(&self, clusters: usize, params: &BorderLevelParams) -> Result<Vec<f64>> {
         params.validate()?;
         let inside =
             |&(a, b, ..): &(u32, u32, f64, u64)| (a as usize) < clusters && (b as usize) < clusters;
-        let pairs: Vec<_> = self.medians().into_iter().filter(inside).collect();
+        let pairs: Vec<_> = medians(&self.pairs).into_iter().filter(inside).collect();
         let stroke_pairs: Vec<_> = medians(&self.strokes).into_iter().filter(inside).collect();
         let samples: u64 = pairs.iter().map(|p| p.3).sum();
         if (pairs.is_empty() || samples == 0) && stroke_pairs.is_empty() {
@@ -269,7 +263,7 @@ fn border_pairs(
     }
 }
 
-/// Per pair `(a, b, median, samples)` of a histogram map, sorted by pair.
+/// Per pair `(a, b, median of ln S_a − ln S_b, samples)` of a histogram map, sorted by pair.
 fn medians(map: &HashMap<(u32, u32), Box<Histogram>>) -> Vec<(u32, u32, f64, u64)> {
     let mut out: Vec<_> = map
         .iter()
@@ -286,21 +280,6 @@ pub(crate) fn apply(labels: &[u32], shading: &mut [f32], delta: &[f64]) {
             *s *= (-d).exp() as f32;
         }
     }
-}
-
-/// The 99.5th percentile of the largest channel of `reflectance` (the white point of
-/// [`crate::Decomposition::normalise`]), if positive and finite.
-pub(crate) fn white_point(reflectance: &Image) -> Option<f32> {
-    let mut v: Vec<f32> = (0..reflectance.len())
-        .map(|i| reflectance.px(i).iter().copied().fold(0.0, f32::max))
-        .filter(|v| v.is_finite() && *v > 0.0)
-        .collect();
-    if v.is_empty() {
-        return None;
-    }
-    let k = ((v.len() - 1) as f64 * 0.995).round() as usize;
-    let (_, q, _) = v.select_nth_unstable_by(k, f32::total_cmp);
-    (q.is_finite() && *q > 0.0).then_some(*q)
 }
 
 #[cfg(test)]
