@@ -489,6 +489,22 @@ depth_map_scale = 1.0
     return info
 
 
+def parse_seeds(text):
+    """`2-7`, `2,5,9` or a mix (`0-3,9`) as a sorted list of distinct seeds."""
+    seeds = set()
+    try:
+        for part in text.split(","):
+            lo, _, hi = part.strip().partition("-")
+            lo = int(lo)
+            hi = int(hi) if hi else lo
+            if lo < 0 or hi < lo:
+                raise ValueError
+            seeds.update(range(lo, hi + 1))
+    except ValueError:
+        sys.exit(f"--seeds: expected ranges like 2-7 or 2,5,9, got {text!r}")
+    return sorted(seeds)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", default=".cache/rendered-lightfields", help="output root (tune/ and test/ below it)")
@@ -499,11 +515,20 @@ def main():
     p.add_argument("--max-disparity", type=float, default=1.5, help="disparity (px) at the 1st/99th depth percentile")
     p.add_argument("--tiny", action="store_true", help="render the committed fixture: 5x5 views of 48x48, one scene")
     p.add_argument("--tiny-seed", type=int, default=8, help="seed of the fixture scene (8: in neither split)")
+    p.add_argument("--seeds", help="render these seeds only (e.g. 2-7 or 2,5,9) into --split; overrides --scenes")
+    p.add_argument("--split", choices=("tune", "test"), help="the split --seeds go to")
     a = p.parse_args()
     if a.tiny:
         a.grid, a.size, a.spp = 5, 48, 16
         PNG_EFFORT.update(filters=(0, 1, 2, 3, 4), level=9)
         jobs = [(a.tiny_seed, "fixture", os.path.join("fixtures", "lightfield", "tiny"))]
+    elif a.seeds:
+        if not a.split:
+            sys.exit("--seeds needs --split tune or --split test")
+        seeds = parse_seeds(a.seeds)
+        if a.tiny_seed in seeds:
+            print(f"warning: seed {a.tiny_seed} is the committed fixture's scene", file=sys.stderr)
+        jobs = [(seed, a.split, os.path.join(a.out, a.split, f"scene{seed:02d}")) for seed in seeds]
     else:
         if a.scenes < 2:
             sys.exit("--scenes: at least 2 (half tune, half test)")
@@ -540,7 +565,8 @@ def main():
             )
     print(f"done in {time.time() - t0:.0f} s", flush=True)
     if not a.tiny:
-        with open(os.path.join(a.out, "provenance.json"), "w") as f:
+        name = f"provenance-{a.split}-{a.seeds}.json" if a.seeds else "provenance.json"
+        with open(os.path.join(a.out, name), "w") as f:
             json.dump(provenance, f, indent=1)
 
 

@@ -100,6 +100,33 @@ fn lightfield_writes_every_view_under_its_input_name() {
         String::from_utf8_lossy(&forced.stderr)
     );
     assert!(!out.join("reflectance/input_Cam000.tiff").exists());
+    // The options that are off by default reach the method and say so in stats.json.
+    let options = dir.path().join("options");
+    let o = decompose(&[
+        os("lightfield"),
+        tiny().as_os_str(),
+        os("--out"),
+        options.as_os_str(),
+        os("-q"),
+        os("--shear"),
+        os("--retinex-prior"),
+        os("--white-black-cue"),
+        os("--no-unlit-fill"),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(options.join("stats.json")).unwrap()).unwrap();
+    let params = stats["params"].as_str().unwrap();
+    for needle in [
+        "shear: true",
+        "level_prior: CentreRetinex",
+        "white_black_cue: true",
+        "unlit_as_missing: false",
+    ] {
+        assert!(params.contains(needle), "{needle} not in {params}");
+    }
+    assert_eq!(stats["run"]["unlit_ray_fraction"], 0.0);
+    assert!(options.join("reflectance/input_Cam012.png").is_file());
 }
 
 /// Runs on a broken copy of the fixture; the error must name `needle` and leave no output.

@@ -45,6 +45,21 @@ impl PairWeights {
         }
     }
 
+    /// Multiplies by `factor` the weight of every pair with a pixel in `mask` (one flag per
+    /// pixel).
+    pub fn damp_pairs_touching(&mut self, mask: &[bool], factor: f32) {
+        let w = self.width;
+        for p in 0..self.width * self.height {
+            let x = p % w;
+            if x + 1 < w && (mask[p] || mask[p + 1]) {
+                self.horizontal[p] *= factor;
+            }
+            if p + w < mask.len() && (mask[p] || mask[p + w]) {
+                self.vertical[p] *= factor;
+            }
+        }
+    }
+
     /// Weights from a function of the two pixel indices of each pair.
     pub fn from_pairs(width: usize, height: usize, f: impl Fn(usize, usize) -> f32) -> Self {
         let mut out = Self::constant(width, height, 0.0);

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 
 use super::LightField;
 use super::cues::{self, CueParams, PairWeights};
-use super::retinex::{ViewSolveInfo, ViewSolveParams, solve_view};
+use super::retinex::{ViewSolveInfo, ViewSolveParams, solve_view_with_target};
 use super::tvl1::{TvL1Info, TvL1Params, tv_l1};
 use crate::decomposition::{Decomposition, SHADING_FLOOR};
 use crate::error::{Error, Result};
@@ -47,20 +47,37 @@ pub struct LightFieldParams {
     pub cues: CueParams,
     /// The per-view Retinex solve.
     pub solve: ViewSolveParams,
+    /// Option, off by default: step 4's angular differences follow the disparity
+    /// (`tvl1::tv_l1_sheared`) when a disparity is given. On the 8 tuning scenes it changes
+    /// the scores by less than the other choices (docs/intrinsic-lightfields.md) at 3–4× the
+    /// filter's time.
+    pub shear: bool,
+    /// What step 3's data term ties each view's log shading to (see [`LevelPrior`]); the
+    /// thesis' log intensity by default, chosen by cross-validation.
+    pub level_prior: LevelPrior,
+    /// Rays with no light (`‖L̂‖ = 0`, e.g. a deep shadow that is black in an 8-bit file) are
+    /// treated as missing data: their pairs are damped like occlusions (`ω^occ`) in the
+    /// per-view solves and the 4D filter fills their reflectance in from the surface around
+    /// them (`method::coherency`). Not in the thesis, which divides by their zero intensity;
+    /// `false` is that ablation. On the 8 tuning scenes this is most of the gain in angular
+    /// coherence (docs/intrinsic-lightfields.md).
+    pub unlit_as_missing: bool,
     /// Ablation switch: `false` skips both 4D filterings (`L̂ = L`, `R̂₁ = R_g1`).
     pub filter_4d: bool,
     /// Ablation switch: `false` drops the occlusion cue (eq. 4.12).
     pub occlusion_cue: bool,
-    /// Ablation switch: `false` drops the white/black cue (eq. 4.11).
+    /// The white/black cue (eq. 4.11). Off by default: leave-one-scene-out cross-validation on
+    /// the 8 tuning scenes chose it off in every fold (docs/intrinsic-lightfields.md); `true`
+    /// is the thesis.
     pub white_black_cue: bool,
 }
 
-/// β of the reflectance filter, chosen on the 4 rendered tuning scenes (with the earlier
-/// three-channel filter, 100 iterations at ρ = 10) among 0.3 / 1 / 3 (mean
-/// LMSE 0.064 / 0.057 / 0.055, mean angular incoherence 0.009 / 0.014 / 0.023; per-view Retinex
-/// 0.049 and 0.020): the lowest incoherence. The thesis' 0.05 flattens printed textures into
-/// the shading (LMSE 0.093 on `scene02`, against Retinex's 0.047).
-pub const REFLECTANCE_BETA: f32 = 0.3;
+/// β of the reflectance filter: 1, chosen with the cues by leave-one-scene-out
+/// cross-validation on the 8 rendered tuning scenes between 0.3 and 1 (every fold chose 1:
+/// mean LMSE 0.0432 against 0.0462, angular incoherence 0.0051 against 0.0034; per-view
+/// Retinex 0.0562 and 0.0263; docs/intrinsic-lightfields.md). The thesis' 0.05 flattens printed
+/// textures into the shading (LMSE 0.093 on `scene02`, against Retinex's 0.047).
+pub const REFLECTANCE_BETA: f32 = 1.0;
 
 /// ρ of the reflectance filter. With a log-domain signal (contrasts of order 1 rather than 0.1)
 /// the filter's primal steps `τ = 1/(16ρ)` must be longer than at the ρ = 10 tuned for images
@@ -90,11 +107,24 @@ impl Default for LightFieldParams {
             },
             cues: CueParams::default(),
             solve: ViewSolveParams::default(),
+            shear: false,
+            level_prior: LevelPrior::Intensity,
+            unlit_as_missing: true,
             filter_4d: true,
             occlusion_cue: true,
-            white_black_cue: true,
+            white_black_cue: false,
         }
     }
+}
+
+/// The target of the per-view solves' data term `μ (s − t)²` (eq. 4.4's weak term).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LevelPrior {
+    /// The thesis: `t = i`, the log intensity, with weight `ViewSolveParams::mu`.
+    Intensity,
+    /// Zhao et al.'s Retinex of the centre view, carried to every view through the disparity
+    /// (`method::prior`), weight `ViewSolveParams::mu`.
+    CentreRetinex,
 }
 
 /// The decomposition of every view: `reflectance` (3 channels) × `shading` (1 channel) = `L`.
@@ -129,6 +159,9 @@ pub struct LightFieldInfo {
     pub albedo_pair_fraction: f64,
     /// Pairs marked as occlusions, fraction of all pairs (all views).
     pub occlusion_pair_fraction: f64,
+    /// Rays with no light treated as missing data, fraction of all rays
+    /// ([`LightFieldParams::unlit_as_missing`]).
+    pub unlit_ray_fraction: f64,
     /// The 4D TV-L1 filter of the reflectance (step 4), unless the filter is off.
     pub reflectance_filter: Option<TvL1Info>,
 }
@@ -265,6 +298,15 @@ pub fn decompose(
     // White = 1 for the CIELab probabilities.
     let white = channel_max_quantile(filtered.data(), 0.995);
 
+    // Rays with no light (black, e.g. a deep shadow in an 8-bit file) carry no information:
+    // their pairs are cut from the per-view solves like occlusions, and the 4D filter fills
+    // their reflectance in from the surface around them.
+    let unlit: Vec<bool> = s0
+        .par_iter()
+        .map(|&l| params.unlit_as_missing && l <= 0.0)
+        .collect();
+    info.unlit_ray_fraction = unlit.iter().filter(|&&u| u).count() as f64 / unlit.len() as f64;
+
     // Steps 2–3: cues and the per-view solves, ring by ring.
     let use_occlusion = params.occlusion_cue && disparity.is_some();
     info.occlusion_cue = use_occlusion;
@@ -273,6 +315,13 @@ pub fn decompose(
             .iter()
             .fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)))
     });
+    // The data term's target of every ray, when not the thesis' log intensity.
+    let prior: Option<Vec<f32>> = match (disparity, params.level_prior) {
+        (Some(d), LevelPrior::CentreRetinex) => {
+            Some(prior::centre_retinex_prior(&filtered, d, &log_i)?)
+        }
+        _ => None,
+    };
     let mut log_s = vec![0.0f32; lf.views() * n];
     let mut solves = vec![ViewSolveInfo::default(); lf.views()];
     let mut marked = (0.0f64, 0.0f64);
@@ -292,17 +341,26 @@ pub fn decompose(
                 let scaled: Vec<f32> = rgb.iter().map(|x| x / white).collect();
                 let albedo =
                     cues::albedo_cue(w, h, rgb, &scaled, &params.cues, params.white_black_cue);
-                let occlusion = match (use_occlusion, disparity, range) {
+                let mut occlusion = match (use_occlusion, disparity, range) {
                     (true, Some(d), Some(range)) => {
                         cues::occlusion_cue(w, h, d.view_data(v), range, &params.cues)
                     }
                     _ => PairWeights::constant(w, h, 1.0),
                 };
+                occlusion.damp_pairs_touching(&unlit[v * n..(v + 1) * n], params.cues.omega_occ);
                 let start = match parent {
                     Some(p) => &log_s[p * n..(p + 1) * n],
                     None => view_i,
                 };
-                let (s, solve) = solve_view(view_i, &albedo, &occlusion, start, &params.solve);
+                let target = prior.as_ref().map_or(view_i, |t| &t[v * n..(v + 1) * n]);
+                let (s, solve) = solve_view_with_target(
+                    view_i,
+                    target,
+                    &albedo,
+                    &occlusion,
+                    start,
+                    &params.solve,
+                );
                 let frac = |pw: &PairWeights, f: &dyn Fn(f32) -> bool| {
                     pw.horizontal[..]
                         .iter()
@@ -344,35 +402,12 @@ pub fn decompose(
         &log_norm_l,
         &log_s,
         params.filter_4d.then_some(&params.reflectance_filter),
+        &unlit,
+        disparity.filter(|_| params.shear),
     )?;
     info.reflectance_filter = filter_info;
     lap(&mut info, "filter reflectance");
-    // S_f = ‖L̂‖₂ / ‖R̂₁‖₂.
-    let mut shading_data: Vec<f32> = s0
-        .par_iter()
-        .zip(log_r_hat.par_iter())
-        .map(|(&l, &r)| l / r.exp().max(f32::MIN_POSITIVE))
-        .collect();
-    let input_max = lf.data().iter().copied().fold(0.0f32, f32::max);
-    let s_floor = (input_max * SHADING_FLOOR).max(f32::MIN_POSITIVE);
-    let mut reflectance = lf.clone();
-    reflectance
-        .data_mut()
-        .par_chunks_exact_mut(3)
-        .zip(shading_data.par_iter_mut())
-        .for_each(|(p, s)| {
-            if !(s.is_finite() && *s >= s_floor) {
-                *s = s_floor;
-            }
-            let s = *s;
-            p.iter_mut().for_each(|v| *v /= s);
-        });
-    // One scale for the whole light field.
-    let q = channel_max_quantile(reflectance.data(), 0.995);
-    if q.is_finite() && q > 0.0 {
-        reflectance.data_mut().par_iter_mut().for_each(|v| *v /= q);
-        shading_data.par_iter_mut().for_each(|s| *s *= q);
-    }
+    let (reflectance, shading_data) = layers::compose(lf, &s0, &log_r_hat, params.unlit_as_missing);
     let shading = LightField::from_vec(
         lf.rows(),
         lf.cols(),
@@ -397,5 +432,7 @@ pub fn decompose(
 
 mod baselines;
 mod coherency;
+mod layers;
+mod prior;
 #[cfg(test)]
 mod tests;

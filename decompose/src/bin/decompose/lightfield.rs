@@ -77,9 +77,21 @@ pub(crate) struct LightFieldInputArgs {
     /// Ablation: no occlusion cue.
     #[arg(long)]
     pub(crate) no_occlusion_cue: bool,
-    /// Ablation: no white/black cue.
+    /// Use the thesis' white/black cue (eq. 4.11; off by default, see the docs).
     #[arg(long)]
-    pub(crate) no_white_black_cue: bool,
+    pub(crate) white_black_cue: bool,
+    /// Ablation: black (unlit) rays are data, as in the thesis, instead of missing data filled
+    /// in from the surface around them.
+    #[arg(long)]
+    pub(crate) no_unlit_fill: bool,
+    /// Tie each view's shading levels to Zhao et al.'s Retinex of the centre view, carried to
+    /// every view through the disparity, instead of to the intensity (the thesis).
+    #[arg(long)]
+    pub(crate) retinex_prior: bool,
+    /// Take the 4D filter's angular differences along the disparity instead of at a fixed
+    /// pixel (3-4x slower filter; see the docs).
+    #[arg(long)]
+    pub(crate) shear: bool,
 }
 
 #[derive(Args)]
@@ -114,13 +126,23 @@ impl LightFieldInputArgs {
         });
         p.filter_4d = !self.no_4d_filter;
         p.occlusion_cue = !self.no_occlusion_cue;
-        p.white_black_cue = !self.no_white_black_cue;
+        p.white_black_cue = self.white_black_cue;
+        p.unlit_as_missing = !self.no_unlit_fill;
+        if self.retinex_prior {
+            p.level_prior = decompose::lightfield::method::LevelPrior::CentreRetinex;
+        }
+        p.shear = self.shear;
         p
     }
 
+    /// Whether any enabled step needs a disparity.
+    fn needs_disparity(&self) -> bool {
+        !self.no_occlusion_cue || self.retinex_prior || (self.shear && !self.no_4d_filter)
+    }
+
     /// Reads the views and the centre-view disparity: the given file, else the folder's
-    /// `gt_disp_lowres.pfm`, else estimated from the epipolar-plane images (unless
-    /// `--no-occlusion-cue`, which needs none). Also says which.
+    /// `gt_disp_lowres.pfm`, else estimated from the epipolar-plane images (unless no enabled
+    /// step needs one). Also says which.
     pub(crate) fn load(&self) -> Result<(LightFieldFolder, Option<Image>, &'static str)> {
         let layout = self.grid.map(|g| FolderLayout::Grid {
             rows: g.rows,
@@ -150,7 +172,10 @@ impl LightFieldInputArgs {
             }
             None => match &folder.disparity {
                 Some(d) => (Some(d.clone()), "the folder's gt_disp_lowres.pfm"),
-                None if self.no_occlusion_cue => (None, "none (no occlusion cue)"),
+                None if !self.needs_disparity() => (
+                    None,
+                    "none (no occlusion cue, Retinex prior or sheared filter)",
+                ),
                 None => {
                     let (d, _) = epi_disparity(&folder.field, &EpiParams::default())
                         .context("estimating disparity from the epipolar-plane images")?;

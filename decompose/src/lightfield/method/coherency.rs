@@ -14,22 +14,31 @@ use rayon::prelude::*;
 
 use crate::error::Result;
 use crate::lightfield::LightField;
-use crate::lightfield::tvl1::{TvL1Info, TvL1Params, tv_l1};
+use crate::lightfield::tvl1::{TvL1Info, TvL1Params, tv_l1_sheared, tv_l1_with_unknown};
 
 /// `ln ‖R̂₁‖₂` for every ray: `ln ‖L‖₂ − s` (`log_norm`, `log_shading`, one value per ray of
 /// `shape`, row-major views) filtered in 4D with `params`, or unfiltered when `params` is
-/// `None` (the "no 4D filter" ablation).
+/// `None` (the "no 4D filter" ablation). The rays marked `unknown` (no light) are filled in by
+/// the filter; with `sheared_by` its angular differences follow that disparity.
 pub(super) fn filtered_log_reflectance(
     shape: &LightField,
     log_norm: &[f32],
     log_shading: &[f32],
     params: Option<&TvL1Params>,
+    unknown: &[bool],
+    sheared_by: Option<&LightField>,
 ) -> Result<(Vec<f32>, Option<TvL1Info>)> {
-    let log_r: Vec<f32> = log_norm
+    let mut log_r: Vec<f32> = log_norm
         .par_iter()
         .zip(log_shading.par_iter())
         .map(|(&i, &s)| i - s)
         .collect();
+    fill_unknown(
+        &mut log_r,
+        unknown,
+        shape.width() as usize,
+        shape.height() as usize,
+    );
     let Some(params) = params else {
         return Ok((log_r, None));
     };
@@ -41,6 +50,63 @@ pub(super) fn filtered_log_reflectance(
         1,
         log_r,
     )?;
-    let (out, info) = tv_l1(&one, params)?;
+    let (out, info) = match sheared_by {
+        Some(disparity) => tv_l1_sheared(&one, disparity, Some(unknown), params)?,
+        None => tv_l1_with_unknown(&one, unknown, params)?,
+    };
     Ok((out.into_vec(), Some(info)))
+}
+
+/// Replaces every unknown value (`unknown`, one flag per value, views of `width × height`) by
+/// the mean of its already known 4-neighbours in its view, growing inwards from the known
+/// values, so that the filter starts the fill-in from the surrounding surface rather than from
+/// the meaningless data. A view with no known value is left as it is.
+fn fill_unknown(values: &mut [f32], unknown: &[bool], width: usize, height: usize) {
+    let n = width * height;
+    if n == 0 || !unknown.contains(&true) {
+        return;
+    }
+    values
+        .par_chunks_mut(n)
+        .zip(unknown.par_chunks(n))
+        .for_each(|(view, unknown)| {
+            let mut known: Vec<bool> = unknown.iter().map(|u| !u).collect();
+            let neighbours = |p: usize| {
+                let (x, y) = (p % width, p / width);
+                [
+                    (x > 0).then(|| p - 1),
+                    (x + 1 < width).then(|| p + 1),
+                    (y > 0).then(|| p - width),
+                    (y + 1 < height).then(|| p + width),
+                ]
+                .into_iter()
+                .flatten()
+            };
+            let mut front: Vec<usize> = (0..n)
+                .filter(|&p| !known[p] && neighbours(p).any(|q| known[q]))
+                .collect();
+            while !front.is_empty() {
+                let filled: Vec<(usize, f32)> = front
+                    .iter()
+                    .map(|&p| {
+                        let (sum, count) = neighbours(p)
+                            .filter(|&q| known[q])
+                            .fold((0.0f32, 0u32), |(s, c), q| (s + view[q], c + 1));
+                        (p, sum / count as f32)
+                    })
+                    .collect();
+                for &(p, v) in &filled {
+                    view[p] = v;
+                    known[p] = true;
+                }
+                let mut next: Vec<usize> = filled
+                    .iter()
+                    .flat_map(|&(p, _)| neighbours(p))
+                    .filter(|&q| !known[q])
+                    .collect();
+                next.sort_unstable();
+                next.dedup();
+                front = next;
+            }
+        });
 }

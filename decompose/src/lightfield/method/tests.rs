@@ -95,7 +95,7 @@ fn ablations_switch_their_stage_off() {
         &lf,
         None,
         &LightFieldParams {
-            white_black_cue: false,
+            white_black_cue: true,
             ..quick()
         },
         &mut |_| {},
@@ -134,4 +134,46 @@ fn bad_light_fields_are_refused() {
     let mut bad_disp = truth.disparity.clone();
     bad_disp.data_mut()[0] = f32::INFINITY;
     assert!(decompose(&lf, Some(&bad_disp), &quick(), &mut |_| {}).is_err());
+}
+
+/// A patch with no light (black in every view, as a deep shadow in an 8-bit file) gets the
+/// reflectance of the surface around it and zero shading, not a black reflectance; the layers
+/// still multiply back to the input.
+#[test]
+fn unlit_rays_take_the_surrounding_reflectance() {
+    let (mut lf, truth) = card_in_front_of_a_wall(3, 3, 40, 32, 5);
+    let (w, n) = (40usize, 40 * 32);
+    // A 3×3 patch of the wall, left of the card (disparity 0: the same pixels in every view).
+    let patch: Vec<usize> = (14..17)
+        .flat_map(|y| (2..5).map(move |x| y * w + x))
+        .collect();
+    for v in 0..9 {
+        for &p in &patch {
+            lf.view_data_mut(v)[3 * p..3 * p + 3].fill(0.0);
+        }
+    }
+    let (d, _) = decompose(&lf, Some(&truth.disparity), &quick(), &mut |_| {}).unwrap();
+    let grey = |v: usize, p: usize| {
+        d.reflectance.view_data(v)[3 * p..3 * p + 3]
+            .iter()
+            .sum::<f32>()
+            / 3.0
+    };
+    for v in 0..9 {
+        // The wall's reflectance just outside the patch (two pixels up and down).
+        let around = (grey(v, 12 * w + 3) + grey(v, 18 * w + 3)) / 2.0;
+        for &p in &patch {
+            assert_eq!(d.shading.view_data(v)[p], 0.0);
+            let r = grey(v, p);
+            assert!(
+                r > 0.5 * around && r < 2.0 * around,
+                "view {v} pixel {p}: {r} vs {around}"
+            );
+        }
+        let back = d.view(v).reconstruct();
+        for (a, b) in back.data().iter().zip(lf.view_data(v)) {
+            assert!((a - b).abs() <= 1e-5 + 1e-4 * b);
+        }
+    }
+    assert_eq!(n, lf.view_pixels());
 }

@@ -124,6 +124,7 @@ pub struct ViewSolveInfo {
 /// The right-hand side `b` and the fine operator `A` of one view.
 fn normal_equations(
     log_intensity: &[f32],
+    target: &[f32],
     albedo: &PairWeights,
     occlusion: &PairWeights,
     mu: f64,
@@ -131,7 +132,7 @@ fn normal_equations(
     let (w, h) = (occlusion.width, occlusion.height);
     let n = w * h;
     let i = |p: usize| log_intensity[p] as f64;
-    let mut b: Vec<f64> = (0..n).map(|p| mu * i(p)).collect();
+    let mut b: Vec<f64> = (0..n).map(|p| mu * target[p] as f64).collect();
     let mut pair = |p: usize, q: usize, occ: f32, alb: f32| {
         let g = occ as f64 * (1.0 - alb as f64) * (i(p) - i(q));
         b[p] += g;
@@ -167,8 +168,29 @@ pub fn solve_view(
     initial: &[f32],
     params: &ViewSolveParams,
 ) -> (Vec<f32>, ViewSolveInfo) {
+    solve_view_with_target(
+        log_intensity,
+        log_intensity,
+        albedo,
+        occlusion,
+        initial,
+        params,
+    )
+}
+
+/// [`solve_view`] with the data term `μ (s − t)²` tied to `target` (a log shading per pixel)
+/// instead of the log intensity `i`.
+pub fn solve_view_with_target(
+    log_intensity: &[f32],
+    target: &[f32],
+    albedo: &PairWeights,
+    occlusion: &PairWeights,
+    initial: &[f32],
+    params: &ViewSolveParams,
+) -> (Vec<f32>, ViewSolveInfo) {
     let n = occlusion.width * occlusion.height;
     debug_assert_eq!(log_intensity.len(), n);
+    debug_assert_eq!(target.len(), n);
     debug_assert_eq!(initial.len(), n);
     if n == 0 {
         // Nothing to solve (and the grid levels assume at least one pixel).
@@ -178,7 +200,7 @@ pub fn solve_view(
         };
         return (Vec::new(), info);
     }
-    let (b, a) = normal_equations(log_intensity, albedo, occlusion, params.mu);
+    let (b, a) = normal_equations(log_intensity, target, albedo, occlusion, params.mu);
     let mut x: Vec<f64> = initial.iter().map(|&v| v as f64).collect();
     let info = match &params.preconditioner {
         Preconditioner::Jacobi => {

@@ -108,6 +108,9 @@ pub(super) struct State {
     row_mask: Vec<f32>,
     col_mask: Vec<f32>,
     zeros: Vec<f32>,
+    /// Per sample, 1 where `f` is known and 0 where it is not (no fidelity term: the filter
+    /// fills the sample in); empty when every sample is known.
+    known: Vec<f32>,
     /// Lines per chunk of the parallel sweep.
     chunk_lines: usize,
     /// Per chunk: a copy of the next chunk's first `ū` line, and the dual kernel's scratch.
@@ -146,6 +149,7 @@ impl State {
             u: f.clone(),
             ubar: f.clone(),
             y: vec![0.0; 4 * f.len()],
+            known: Vec::new(),
             f,
             row_mask,
             col_mask,
@@ -153,6 +157,15 @@ impl State {
             chunk_lines,
             chunks,
         }
+    }
+
+    /// Marks the samples whose data is unknown (views-major flags, one per sample).
+    pub fn set_unknown(&mut self, unknown_views_major: &[bool]) {
+        let as_f32: Vec<f32> = unknown_views_major
+            .iter()
+            .map(|&u| if u { 0.0 } else { 1.0 })
+            .collect();
+        self.known = to_pixel_major(&self.g, &as_f32);
     }
 
     /// The current `u`, pixel-major; frees everything else.
@@ -186,6 +199,14 @@ impl State {
             col_mask: &self.col_mask,
             zeros: &self.zeros,
         };
+        let known = &self.known;
+        let known_line = |start: usize| -> &[f32] {
+            if known.is_empty() {
+                &[]
+            } else {
+                &known[start..start + n]
+            }
+        };
         // Phase 1: per chunk, dual updates of all lines and primal updates of all but the first.
         let change = self
             .u
@@ -213,10 +234,12 @@ impl State {
                     if l > 0 {
                         let y_prev = &y_done[(l - 1) * 4 * n..];
                         let r = l * n..(l + 1) * n;
+                        let start = (ci * cl + l) * n;
                         change = change.max(k.primal(
                             y_cur,
                             Some(y_prev),
                             &f[r.clone()],
+                            known_line(start),
                             &mut u[r.clone()],
                             &mut ub[r],
                         ));
@@ -240,6 +263,7 @@ impl State {
                     &y[l * 4 * n..(l + 1) * 4 * n],
                     y_prev,
                     &f[l * n..(l + 1) * n],
+                    known_line(l * n),
                     &mut u[..n],
                     &mut ub[..n],
                 )
@@ -374,13 +398,15 @@ impl Kernel<'_> {
     }
 
     /// Primal update (P) of one line: `u ← f + shrink(u + τ div y − f, τβ)`, `ū ← 2u − u_old`.
-    /// `y_above` holds the multipliers of the previous line (`None` for the first line).
+    /// `y_above` holds the multipliers of the previous line (`None` for the first line);
+    /// `known` the line's known-data flags (1 or 0; empty: all known), which scale `τβ`.
     /// Returns `max |Δu|`.
     fn primal(
         &self,
         y: &[f32],
         y_above: Option<&[f32]>,
         f: &[f32],
+        known: &[f32],
         u: &mut [f32],
         ubar: &mut [f32],
     ) -> f32 {
@@ -396,6 +422,7 @@ impl Kernel<'_> {
                 let old = u[i];
                 let fv = f[i];
                 let d = old + tau * div - fv;
+                let tb = if known.is_empty() { tb } else { tb * known[i] };
                 // Proximal map of τβ|· − f|: soft-threshold the residual towards the data.
                 let lo = if d < -tb { -tb } else { d };
                 let clamped = if lo > tb { tb } else { lo };
@@ -431,23 +458,39 @@ impl Kernel<'_> {
         let fl = &f[head..][..len];
         let ul = &mut u[head..][..len];
         let bl = &mut ubar[head..][..len];
-        for t in 0..len {
-            let div =
-                ((yr0[t] - yr1[t]) + (yc0[t] - yc1[t])) + ((yy0[t] - yy1[t]) + (yx0[t] - yx1[t]));
-            let old = ul[t];
-            let fv = fl[t];
-            let d = old + tau * div - fv;
-            let lo = if d < -tb { -tb } else { d };
-            let clamped = if lo > tb { tb } else { lo };
-            let new = fv + (d - clamped);
-            ul[t] = new;
-            bl[t] = new + (new - old);
-            // A select rather than `f32::max` so that the loop vectorises.
-            let delta = (new - old).abs();
-            change = if delta > change { delta } else { change };
+        let div = |t: usize| {
+            ((yr0[t] - yr1[t]) + (yc0[t] - yc1[t])) + ((yy0[t] - yy1[t]) + (yx0[t] - yx1[t]))
+        };
+        // Two copies of the loop so that the common one (all data known) keeps a constant
+        // threshold and vectorises.
+        if known.is_empty() {
+            for t in 0..len {
+                let delta = primal_step(div(t), fl[t], tau, tb, &mut ul[t], &mut bl[t]);
+                change = if delta > change { delta } else { change };
+            }
+        } else {
+            let kl = &known[head..][..len];
+            for t in 0..len {
+                let delta = primal_step(div(t), fl[t], tau, tb * kl[t], &mut ul[t], &mut bl[t]);
+                change = if delta > change { delta } else { change };
+            }
         }
         change
     }
+}
+
+/// One element of (P): `u ← f + shrink(u + τ div − f, tb)`, `ū ← 2u − u_old`; returns `|Δu|`.
+#[inline(always)]
+fn primal_step(div: f32, fv: f32, tau: f32, tb: f32, u: &mut f32, ubar: &mut f32) -> f32 {
+    let old = *u;
+    let d = old + tau * div - fv;
+    // Selects rather than `f32::clamp`/`max` so that the loops vectorise.
+    let lo = if d < -tb { -tb } else { d };
+    let clamped = if lo > tb { tb } else { lo };
+    let new = fv + (d - clamped);
+    *u = new;
+    *ubar = new + (new - old);
+    (new - old).abs()
 }
 
 #[cfg(test)]

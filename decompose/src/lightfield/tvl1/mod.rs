@@ -119,6 +119,9 @@
 mod admm;
 #[cfg(test)]
 mod reference;
+mod sheared;
+#[cfg(test)]
+mod sheared_tests;
 #[cfg(test)]
 mod tests;
 
@@ -128,6 +131,7 @@ use crate::error::{Error, Result};
 use crate::lightfield::LightField;
 use crate::progress::{Progress, ProgressFn};
 use admm::Grid;
+pub use sheared::{objective_sheared, tv_l1_sheared};
 
 /// Parameters of the 4D TV-L1 filter (eq. 4.3) and of its linearised-ADMM solver.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -211,6 +215,33 @@ pub fn tv_l1_with_progress(
     params: &TvL1Params,
     progress: ProgressFn,
 ) -> Result<(LightField, TvL1Info)> {
+    filter(lf, None, params, progress)
+}
+
+/// [`tv_l1`] where the samples marked in `unknown` (one flag per sample, the light field's
+/// layout) have no fidelity term: the filter fills them in from their neighbours (TV
+/// inpainting). The objective reported counts the fidelity of the known samples only.
+pub fn tv_l1_with_unknown(
+    lf: &LightField,
+    unknown: &[bool],
+    params: &TvL1Params,
+) -> Result<(LightField, TvL1Info)> {
+    if unknown.len() != lf.data().len() {
+        return Err(Error::param(
+            "unknown",
+            unknown.len(),
+            "must hold one flag per sample of the light field",
+        ));
+    }
+    filter(lf, Some(unknown), params, &mut |_| {})
+}
+
+fn filter(
+    lf: &LightField,
+    unknown: Option<&[bool]>,
+    params: &TvL1Params,
+    progress: ProgressFn,
+) -> Result<(LightField, TvL1Info)> {
     params.validate()?;
     if lf.data().is_empty() {
         return Err(Error::param(
@@ -228,6 +259,11 @@ pub fn tv_l1_with_progress(
     }
     let g = grid(lf);
     let mut state = admm::State::new(g, lf.data());
+    if let Some(unknown) = unknown
+        && unknown.contains(&true)
+    {
+        state.set_unknown(unknown);
+    }
     let rho = params.rho;
     let tau = 1.0 / (rho * g.gradient_norm_sq());
     let tau_beta = tau * params.beta;
@@ -261,7 +297,10 @@ pub fn tv_l1_with_progress(
         lf.channels(),
         u,
     )?;
-    info.objective = objective(&out, lf, params);
+    info.objective = match unknown {
+        None => objective(&out, lf, params),
+        Some(unknown) => objective_known(&out, lf, params, unknown),
+    };
     Ok((out, info))
 }
 
@@ -282,6 +321,33 @@ fn grid(lf: &LightField) -> Grid {
 /// # Panics
 /// When `u` and `f` differ in shape.
 pub fn objective(u: &LightField, f: &LightField, params: &TvL1Params) -> f64 {
+    objective_impl(u, f, params, None)
+}
+
+/// [`objective`] without the fidelity term of the samples marked in `unknown`.
+///
+/// # Panics
+/// When `u`, `f` and `unknown` differ in shape.
+pub fn objective_known(
+    u: &LightField,
+    f: &LightField,
+    params: &TvL1Params,
+    unknown: &[bool],
+) -> f64 {
+    assert_eq!(
+        unknown.len(),
+        f.data().len(),
+        "objective_known: one flag per sample"
+    );
+    objective_impl(u, f, params, Some(unknown))
+}
+
+fn objective_impl(
+    u: &LightField,
+    f: &LightField,
+    params: &TvL1Params,
+    unknown: Option<&[bool]>,
+) -> f64 {
     assert!(
         u.rows() == f.rows()
             && u.cols() == f.cols()
@@ -321,7 +387,9 @@ pub fn objective(u: &LightField, f: &LightField, params: &TvL1Params) -> f64 {
                         tv[1] += gc * gc;
                         tv[2] += gy * gy;
                         tv[3] += gx * gx;
-                        fid += (u0 - f64::from(fd[p + k])).abs();
+                        if !unknown.is_some_and(|m| m[p + k]) {
+                            fid += (u0 - f64::from(fd[p + k])).abs();
+                        }
                     }
                     sum += ((tv[0] + tv[1]) + (tv[2] + tv[3])).sqrt() + beta * fid;
                 }
