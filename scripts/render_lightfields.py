@@ -6,9 +6,12 @@ the HCI 4D light field benchmark (Honauer, Johannsen, Kondermann & Goldluecke, A
     python3 scripts/render_lightfields.py [--out .cache/rendered-lightfields] [--scenes 8]
                                           [--grid 9] [--size 256] [--spp 8]
     python3 scripts/render_lightfields.py --tiny      # rewrites fixtures/lightfield/tiny/
+    python3 scripts/render_lightfields.py --seeds 0-7 --split tune   # the split used since
+    python3 scripts/render_lightfields.py --seeds 9-16 --split test  # 2026-12-05
 
 Scenes are seeded and split by seed: the first half goes to `tune/`, the second to `test/`
-(default: seeds 0-3 tune, 4-7 test). Tune only on `tune/`. `--tiny` renders one scene (seed
+(default: seeds 0-3 tune, 4-7 test), or `--seeds` into `--split`. Since 2026-12-05 the split
+is seeds 0-7 tune and 9-16 test (docs/lightfield-data.md). Tune only on `tune/`. `--tiny` renders one scene (seed
 `--tiny-seed`, default 8, in neither split) as 5x5 views of 48x48 pixels (16 spp) straight into
 `fixtures/lightfield/tiny/` (0.90 MB with its truth).
 

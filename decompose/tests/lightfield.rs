@@ -127,6 +127,40 @@ fn lightfield_writes_every_view_under_its_input_name() {
     }
     assert_eq!(stats["run"]["unlit_ray_fraction"], 0.0);
     assert!(options.join("reflectance/input_Cam012.png").is_file());
+    // Without a disparity file: nothing is estimated and the occlusion cue is off; with an
+    // option that needs one, it is estimated, and the occlusion cue stays off.
+    let bare = dir.path().join("bare");
+    copy_dir(&tiny(), &bare);
+    std::fs::remove_file(bare.join("gt_disp_lowres.pfm")).unwrap();
+    for (extra, source, estimated) in [
+        (
+            None,
+            "none (without a disparity file the occlusion cue is off)",
+            false,
+        ),
+        (
+            Some("--shear"),
+            "estimated from the epipolar-plane images",
+            true,
+        ),
+    ] {
+        let out = dir.path().join(format!("bare-out-{estimated}"));
+        let mut args = vec![
+            os("lightfield"),
+            bare.as_os_str(),
+            os("--out"),
+            out.as_os_str(),
+            os("-q"),
+        ];
+        args.extend(extra.map(os));
+        let o = decompose(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stats: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
+        assert_eq!(stats["disparity"], source);
+        assert_eq!(stats["run"]["occlusion_cue"], false);
+        assert_eq!(out.join("disparity.pfm").is_file(), estimated);
+    }
 }
 
 /// Runs on a broken copy of the fixture; the error must name `needle` and leave no output.

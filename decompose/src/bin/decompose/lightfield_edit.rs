@@ -61,7 +61,15 @@ pub(crate) fn run_edit_lightfield(e: LightFieldEdit) -> Result<()> {
         LightFieldEdit::Relight { curve, .. } => Some(parse_curve(curve)?),
         LightFieldEdit::Recolour { .. } => None,
     };
-    let (folder, disparity, _) = io_args.input.load()?;
+    // A recolouring region drawn on the centre view is carried to the others by the disparity.
+    let carries_region = matches!(
+        &e,
+        LightFieldEdit::Recolour {
+            region: Some(_),
+            ..
+        }
+    );
+    let (folder, disparity, disparity_source) = io_args.input.load(carries_region)?;
     let lf = &folder.field;
     let region = match &e {
         LightFieldEdit::Recolour {
@@ -86,7 +94,7 @@ pub(crate) fn run_edit_lightfield(e: LightFieldEdit) -> Result<()> {
     let staged = StagedFolder::new(&io_args.out, io_args.force)?;
     let (d, _) = io_args
         .input
-        .run(&folder, disparity.as_ref(), io_args.quiet)?;
+        .run(&folder, disparity.as_ref(), disparity_source, io_args.quiet)?;
     let edited = match (&e, curve) {
         (LightFieldEdit::Recolour { colour, .. }, _) => {
             recolour(&d, region.as_ref(), colour.hue, colour.saturation)?

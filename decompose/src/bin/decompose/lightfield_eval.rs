@@ -70,8 +70,8 @@ pub(crate) struct EvalLightFieldArgs {
     #[arg(long)]
     pub(crate) json: Option<PathBuf>,
     /// Ignore the scenes' disparity files: the light-field method gets the disparity estimated
-    /// from the epipolar-plane images, as `decompose lightfield` does for a folder without one.
-    /// The scoring still uses the true disparity.
+    /// from the epipolar-plane images, as `decompose lightfield` does for a folder without one
+    /// (and, as there, no occlusion cue). The scoring still uses the true disparity.
     #[arg(long)]
     pub(crate) estimate_disparity: bool,
 }
@@ -145,7 +145,10 @@ pub(crate) fn run_eval_lightfield(a: EvalLightFieldArgs) -> Result<()> {
         let mut rows = BTreeMap::new();
         for &m in &methods {
             let t = Instant::now();
-            let ours = |p: LightFieldParams| {
+            // As `decompose lightfield`: no occlusion cue with an estimated disparity.
+            let estimating = a.estimate_disparity;
+            let ours = |mut p: LightFieldParams| {
+                p.occlusion_cue &= !estimating;
                 decompose_lf(lf, disparity.as_ref(), &p, &mut |_| {}).map(|(d, _)| d)
             };
             let d = match m {
