@@ -10,6 +10,12 @@
 //! 4. Global coherency: `R_g1 = L / e^s`, its log norm filtered in 4D to `ln ‖R̂₁‖₂`;
 //!    `S_f = ‖L̂‖₂ / ‖R̂₁‖₂`, `R_f = L / S_f` (so `R_f × S_f = L` exactly, on every view).
 //!
+//! Not in the thesis ([`LightFieldParams`] says why, with the figures): rays with no light are
+//! missing data (their pairs damped in step 3, their reflectance filled in by step 4's filter,
+//! `method::layers`); and two options, a disparity-sheared filter in step 4
+//! ([`super::tvl1::tv_l1_sheared`]) and Zhao et al.'s centre-view Retinex as step 3's level
+//! prior (`method::prior`).
+//!
 //! One reflectance scale for the whole light field: its 99.5th percentile channel value over all
 //! views is 1 (per-view normalisation would itself be an angular incoherence).
 
@@ -18,114 +24,18 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::LightField;
-use super::cues::{self, CueParams, PairWeights};
-use super::retinex::{ViewSolveInfo, ViewSolveParams, solve_view_with_target};
-use super::tvl1::{TvL1Info, TvL1Params, tv_l1};
+use super::cues::{self, PairWeights};
+use super::retinex::{ViewSolveInfo, solve_view_with_target};
+use super::tvl1::{TvL1Info, tv_l1};
 use crate::decomposition::{Decomposition, SHADING_FLOOR};
 use crate::error::{Error, Result};
 use crate::progress::{Progress, ProgressFn};
 
 pub use baselines::{per_view, per_view_retinex};
-
-/// Parameters of [`decompose`]. `Default` holds the thesis' values except where the rendered
-/// tuning scenes said otherwise (each such field says so, with the figures).
-#[derive(Clone, Debug, PartialEq)]
-pub struct LightFieldParams {
-    /// Step 1: the 4D TV-L1 filter of the input (eq. 4.3, β = 0.05 in the thesis), giving `L̂`.
-    /// Default `None` (`L̂ = L`): on the 4 rendered tuning scenes at 256² the thesis' filter
-    /// flattens printed textures and small objects before the cues see them: mean LMSE 0.141
-    /// with it against 0.064 without, angular incoherence 0.044 against 0.009
-    /// (docs/intrinsic-lightfields.md).
-    pub input_filter: Option<TvL1Params>,
-    /// Step 4: the 4D TV-L1 filter of the Retinex reflectance `R_g1` (eq. 4.3), which makes it
-    /// coherent across views, run on `ln ‖R_g1‖₂` (one channel; see `method::coherency`).
-    /// β = [`REFLECTANCE_BETA`] instead of the thesis' 0.05, ρ = [`REFLECTANCE_RHO`] and
-    /// [`REFLECTANCE_ITERATIONS`] iterations, all chosen on the tuning scenes
-    /// (docs/intrinsic-lightfields.md).
-    pub reflectance_filter: TvL1Params,
-    /// Cue thresholds (eqs. 4.10–4.12).
-    pub cues: CueParams,
-    /// The per-view Retinex solve.
-    pub solve: ViewSolveParams,
-    /// Option, off by default: step 4's angular differences follow the disparity
-    /// (`tvl1::tv_l1_sheared`) when a disparity is given. On the 8 tuning scenes it changes
-    /// the scores by less than the other choices (docs/intrinsic-lightfields.md) at 3–4× the
-    /// filter's time.
-    pub shear: bool,
-    /// What step 3's data term ties each view's log shading to (see [`LevelPrior`]); the
-    /// thesis' log intensity by default, chosen by cross-validation.
-    pub level_prior: LevelPrior,
-    /// Rays with no light (`‖L̂‖ = 0`, e.g. a deep shadow that is black in an 8-bit file) are
-    /// treated as missing data: their pairs are damped like occlusions (`ω^occ`) in the
-    /// per-view solves and the 4D filter fills their reflectance in from the surface around
-    /// them (`method::coherency`). Not in the thesis, which divides by their zero intensity;
-    /// `false` is that ablation. On the 8 tuning scenes this is most of the gain in angular
-    /// coherence (docs/intrinsic-lightfields.md).
-    pub unlit_as_missing: bool,
-    /// Ablation switch: `false` skips both 4D filterings (`L̂ = L`, `R̂₁ = R_g1`).
-    pub filter_4d: bool,
-    /// Ablation switch: `false` drops the occlusion cue (eq. 4.12).
-    pub occlusion_cue: bool,
-    /// The white/black cue (eq. 4.11). Off by default: leave-one-scene-out cross-validation on
-    /// the 8 tuning scenes chose it off in every fold (docs/intrinsic-lightfields.md); `true`
-    /// is the thesis.
-    pub white_black_cue: bool,
-}
-
-/// β of the reflectance filter: 1, chosen with the cues by leave-one-scene-out
-/// cross-validation on the 8 rendered tuning scenes between 0.3 and 1 (every fold chose 1:
-/// mean LMSE 0.0432 against 0.0462, angular incoherence 0.0051 against 0.0034; per-view
-/// Retinex 0.0562 and 0.0263; docs/intrinsic-lightfields.md). The thesis' 0.05 flattens printed
-/// textures into the shading (LMSE 0.093 on `scene02`, against Retinex's 0.047).
-pub const REFLECTANCE_BETA: f32 = 1.0;
-
-/// ρ of the reflectance filter. With a log-domain signal (contrasts of order 1 rather than 0.1)
-/// the filter's primal steps `τ = 1/(16ρ)` must be longer than at the ρ = 10 tuned for images
-/// in [0, 1]: on the 4 tuning scenes, 30 iterations at ρ = 3 score like 100 at ρ = 10 (mean
-/// LMSE 0.0557 / 0.0553, incoherence 0.0077 / 0.0076, both at the thesis' cue settings) in
-/// under a third of the time.
-pub const REFLECTANCE_RHO: f32 = 3.0;
-
-/// Iterations of the reflectance filter: 30. The filter starts from `u⁰ = R_g1` and is stopped
-/// early on purpose. Run to convergence, its minimiser flattens more than the tuning scenes
-/// reward. At ρ = 1, 30 iterations give LMSE 0.0717 against 0.0557 at ρ = 3, for the same
-/// incoherence (0.0075).
-pub const REFLECTANCE_ITERATIONS: usize = 30;
-
-/// Iterations of the optional input filter (step 1): 100 at ρ = 10.
-pub const FILTER_ITERATIONS: usize = 100;
-
-impl Default for LightFieldParams {
-    fn default() -> Self {
-        Self {
-            input_filter: None,
-            reflectance_filter: TvL1Params {
-                beta: REFLECTANCE_BETA,
-                rho: REFLECTANCE_RHO,
-                iterations: REFLECTANCE_ITERATIONS,
-                ..Default::default()
-            },
-            cues: CueParams::default(),
-            solve: ViewSolveParams::default(),
-            shear: false,
-            level_prior: LevelPrior::Intensity,
-            unlit_as_missing: true,
-            filter_4d: true,
-            occlusion_cue: true,
-            white_black_cue: false,
-        }
-    }
-}
-
-/// The target of the per-view solves' data term `μ (s − t)²` (eq. 4.4's weak term).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum LevelPrior {
-    /// The thesis: `t = i`, the log intensity, with weight `ViewSolveParams::mu`.
-    Intensity,
-    /// Zhao et al.'s Retinex of the centre view, carried to every view through the disparity
-    /// (`method::prior`), weight `ViewSolveParams::mu`.
-    CentreRetinex,
-}
+pub use params::{
+    FILTER_ITERATIONS, LevelPrior, LightFieldParams, REFLECTANCE_BETA, REFLECTANCE_ITERATIONS,
+    REFLECTANCE_RHO,
+};
 
 /// The decomposition of every view: `reflectance` (3 channels) × `shading` (1 channel) = `L`.
 #[derive(Clone, Debug, PartialEq)]
@@ -433,6 +343,7 @@ pub fn decompose(
 mod baselines;
 mod coherency;
 mod layers;
+mod params;
 mod prior;
 #[cfg(test)]
 mod tests;
