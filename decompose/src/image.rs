@@ -258,3 +258,16 @@ pub fn resolve_mask(dims: (u32, u32), mask: Option<&Mask>) -> Result<Mask> {
         }
     }
 }
+
+/// The 4-connected neighbours of pixel `p` (row-major) in a `w × h` image.
+pub(crate) fn neighbours4(w: usize, h: usize, p: usize) -> impl Iterator<Item = usize> {
+    let (x, y) = (p % w, p / w);
+    [
+        (x > 0).then(|| p - 1),
+        (x + 1 < w).then(|| p + 1),
+        (y > 0).then(|| p - w),
+        (y + 1 < h).then(|| p + w),
+    ]
+    .into_iter()
+    .flatten()
+}

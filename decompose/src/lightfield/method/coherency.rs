@@ -13,6 +13,7 @@
 use rayon::prelude::*;
 
 use crate::error::Result;
+use crate::image::neighbours4;
 use crate::lightfield::LightField;
 use crate::lightfield::tvl1::{TvL1Info, TvL1Params, tv_l1_sheared, tv_l1_with_unknown};
 
@@ -71,17 +72,7 @@ fn fill_unknown(values: &mut [f32], unknown: &[bool], width: usize, height: usiz
         .zip(unknown.par_chunks(n))
         .for_each(|(view, unknown)| {
             let mut known: Vec<bool> = unknown.iter().map(|u| !u).collect();
-            let neighbours = |p: usize| {
-                let (x, y) = (p % width, p / width);
-                [
-                    (x > 0).then(|| p - 1),
-                    (x + 1 < width).then(|| p + 1),
-                    (y > 0).then(|| p - width),
-                    (y + 1 < height).then(|| p + width),
-                ]
-                .into_iter()
-                .flatten()
-            };
+            let neighbours = |p: usize| neighbours4(width, height, p);
             let mut front: Vec<usize> = (0..n)
                 .filter(|&p| !known[p] && neighbours(p).any(|q| known[q]))
                 .collect();

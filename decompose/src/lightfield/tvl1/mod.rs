@@ -202,6 +202,18 @@ pub struct TvL1Info {
     pub converged: bool,
 }
 
+impl TvL1Info {
+    /// Before the first iteration.
+    fn unstarted() -> Self {
+        Self {
+            iterations: 0,
+            objective: 0.0,
+            max_change: f32::INFINITY,
+            converged: false,
+        }
+    }
+}
+
 /// Filters the whole light field with the 4D TV-L1 filter of eq. 4.3 (see the module docs).
 ///
 /// Errors on invalid parameters or an empty light field.
@@ -268,12 +280,7 @@ fn filter(
     let tau = 1.0 / (rho * g.gradient_norm_sq());
     let tau_beta = tau * params.beta;
     let report_every = (params.iterations / 100).max(1);
-    let mut info = TvL1Info {
-        iterations: 0,
-        objective: 0.0,
-        max_change: f32::INFINITY,
-        converged: false,
-    };
+    let mut info = TvL1Info::unstarted();
     for it in 0..params.iterations {
         if it % report_every == 0 {
             progress(Progress {

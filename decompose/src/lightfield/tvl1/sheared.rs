@@ -230,12 +230,7 @@ pub fn tv_l1_sheared(
         .count();
     let tau = 1.0 / (rho * 4.0 * active.max(1) as f32);
     let tb = tau * params.beta;
-    let mut info = TvL1Info {
-        iterations: 0,
-        objective: 0.0,
-        max_change: f32::INFINITY,
-        converged: false,
-    };
+    let mut info = TvL1Info::unstarted();
     for it in 0..params.iterations {
         // (D) y ← Π(y + ρ∇ū).
         let dual = y

@@ -6,7 +6,7 @@ use std::collections::VecDeque;
 
 use crate::decomposition::{Labels, SHADING_FLOOR};
 use crate::error::Result;
-use crate::image::Image;
+use crate::image::{Image, neighbours4};
 use crate::solver::SolverParams;
 
 use super::complete::poisson_blend;
@@ -70,7 +70,7 @@ fn free_pieces(w: usize, h: usize, hole: &[bool], source: &[PixelSource]) -> Vec
         let (mut piece, mut queue, mut touches) = (Vec::new(), VecDeque::from([start]), false);
         while let Some(p) = queue.pop_front() {
             piece.push(p);
-            for q in neighbours(w, h, p) {
+            for q in neighbours4(w, h, p) {
                 if hole[q] {
                     if !seen[q] {
                         seen[q] = true;
@@ -88,18 +88,6 @@ fn free_pieces(w: usize, h: usize, hole: &[bool], source: &[PixelSource]) -> Vec
     out
 }
 
-fn neighbours(w: usize, h: usize, p: usize) -> impl Iterator<Item = usize> {
-    let (x, y) = (p % w, p / w);
-    [
-        (x > 0).then(|| p - 1),
-        (x + 1 < w).then(|| p + 1),
-        (y > 0).then(|| p - w),
-        (y + 1 < h).then(|| p + w),
-    ]
-    .into_iter()
-    .flatten()
-}
-
 /// Gives each `hole` pixel the label of the nearest labelled pixel (breadth-first from all
 /// labelled pixels at once, 4-connected; ties go to the first reached in row-major order).
 fn fill_labels(w: usize, h: usize, hole: &[bool], labels: &mut [u32]) {
@@ -107,7 +95,7 @@ fn fill_labels(w: usize, h: usize, hole: &[bool], labels: &mut [u32]) {
         .filter(|&p| !hole[p] && labels[p] != Labels::NONE)
         .collect();
     while let Some(p) = queue.pop_front() {
-        for q in neighbours(w, h, p) {
+        for q in neighbours4(w, h, p) {
             if hole[q] && labels[q] == Labels::NONE {
                 labels[q] = labels[p];
                 queue.push_back(q);
