@@ -177,3 +177,24 @@ fn unlit_rays_take_the_surrounding_reflectance() {
     }
     assert_eq!(n, lf.view_pixels());
 }
+
+/// A view with no light at all (a dead camera of the array): the run succeeds, every value is
+/// finite, the layers multiply back to the input, and the dark view gets the reflectance of
+/// its neighbours rather than black.
+#[test]
+fn a_black_view_is_filled_from_the_others() {
+    let (mut lf, truth) = card_in_front_of_a_wall(3, 3, 24, 20, 9);
+    lf.view_data_mut(0).fill(0.0);
+    let (d, info) = decompose(&lf, Some(&truth.disparity), &quick(), &mut |_| {}).unwrap();
+    assert!((info.unlit_ray_fraction - 1.0 / 9.0).abs() < 1e-9);
+    assert!(d.reflectance.data().iter().all(|v| v.is_finite() && *v >= 0.0));
+    assert!(d.shading.data().iter().all(|v| v.is_finite() && *v >= 0.0));
+    let mean = |v: usize| d.reflectance.view_data(v).iter().sum::<f32>() / (24.0 * 20.0 * 3.0);
+    assert!(mean(0) > 0.3 * mean(1), "{} vs {}", mean(0), mean(1));
+    for v in 0..9 {
+        let back = d.view(v).reconstruct();
+        for (a, b) in back.data().iter().zip(lf.view_data(v)) {
+            assert!((a - b).abs() <= 1e-5 + 1e-4 * b);
+        }
+    }
+}
