@@ -187,7 +187,12 @@ fn a_black_view_is_filled_from_the_others() {
     lf.view_data_mut(0).fill(0.0);
     let (d, info) = decompose(&lf, Some(&truth.disparity), &quick(), &mut |_| {}).unwrap();
     assert!((info.unlit_ray_fraction - 1.0 / 9.0).abs() < 1e-9);
-    assert!(d.reflectance.data().iter().all(|v| v.is_finite() && *v >= 0.0));
+    assert!(
+        d.reflectance
+            .data()
+            .iter()
+            .all(|v| v.is_finite() && *v >= 0.0)
+    );
     assert!(d.shading.data().iter().all(|v| v.is_finite() && *v >= 0.0));
     let mean = |v: usize| d.reflectance.view_data(v).iter().sum::<f32>() / (24.0 * 20.0 * 3.0);
     assert!(mean(0) > 0.3 * mean(1), "{} vs {}", mean(0), mean(1));
