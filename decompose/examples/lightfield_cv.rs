@@ -6,7 +6,7 @@
 //!
 //! `cargo run --release -p decompose --example lightfield_cv -- .cache/rendered-lightfields/tune`
 //! (`--json FILE` also writes every score; `--only TEXT` runs the settings whose name contains
-//! TEXT, e.g. `--only "prior 1"`).
+//! TEXT, e.g. `--only "prior zhao"`; `--mu` runs the grid of the data term's `μ` instead).
 //!
 //! The grid spans the choices that decide coherence and accuracy: the centre-view Retinex prior
 //! (`LightFieldParams::retinex_prior`), the sheared filter (`LightFieldParams::shear`), the
@@ -53,6 +53,25 @@ fn grid() -> Vec<(String, LightFieldParams)> {
     out
 }
 
+/// `--mu`: the data term's weight `μ` with either level prior, every other choice at its default.
+fn mu_grid() -> Vec<(String, LightFieldParams)> {
+    let mut out = Vec::new();
+    for (prior_name, level_prior) in [
+        ("thesis", LevelPrior::Intensity),
+        ("zhao", LevelPrior::CentreRetinex),
+    ] {
+        for mu in [1e-3, 3e-3, 1e-2, 3e-2] {
+            let mut p = LightFieldParams {
+                level_prior,
+                ..Default::default()
+            };
+            p.solve.mu = mu;
+            out.push((format!("prior {prior_name} mu {mu:.0e}"), p));
+        }
+    }
+    out
+}
+
 fn scenes(root: &Path) -> Vec<PathBuf> {
     let mut found: Vec<PathBuf> = std::fs::read_dir(root)
         .expect("reading the tuning folder")
@@ -81,7 +100,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .and_then(|i| args.get(i + 1))
         .cloned()
         .unwrap_or_default();
-    let settings: Vec<_> = grid()
+    let grid = if args.iter().any(|a| a == "--mu") {
+        mu_grid()
+    } else {
+        grid()
+    };
+    let settings: Vec<_> = grid
         .into_iter()
         .filter(|(n, _)| n.contains(&only))
         .collect();
