@@ -211,11 +211,15 @@ pub fn decompose(
     // Rays with no light (black, e.g. a deep shadow in an 8-bit file) carry no information:
     // their pairs are cut from the per-view solves like occlusions, and the 4D filter fills
     // their reflectance in from the surface around them.
-    let unlit: Vec<bool> = s0
-        .par_iter()
-        .map(|&l| params.unlit_as_missing && l <= 0.0)
-        .collect();
-    info.unlit_ray_fraction = unlit.iter().filter(|&&u| u).count() as f64 / unlit.len() as f64;
+    // `None` when there is none (or the option is off): no mask to pass around or test.
+    let unlit: Option<Vec<bool>> = if params.unlit_as_missing {
+        let mask: Vec<bool> = s0.par_iter().map(|&l| l <= 0.0).collect();
+        let count = mask.iter().filter(|&&u| u).count();
+        info.unlit_ray_fraction = count as f64 / mask.len() as f64;
+        (count > 0).then_some(mask)
+    } else {
+        None
+    };
 
     // Steps 2–3: cues and the per-view solves, ring by ring.
     let use_occlusion = params.occlusion_cue && disparity.is_some();
@@ -257,7 +261,10 @@ pub fn decompose(
                     }
                     _ => PairWeights::constant(w, h, 1.0),
                 };
-                occlusion.damp_pairs_touching(&unlit[v * n..(v + 1) * n], params.cues.omega_occ);
+                if let Some(unlit) = &unlit {
+                    occlusion
+                        .damp_pairs_touching(&unlit[v * n..(v + 1) * n], params.cues.omega_occ);
+                }
                 let start = match parent {
                     Some(p) => &log_s[p * n..(p + 1) * n],
                     None => view_i,
@@ -312,12 +319,12 @@ pub fn decompose(
         &log_norm_l,
         &log_s,
         params.filter_4d.then_some(&params.reflectance_filter),
-        &unlit,
+        unlit.as_deref(),
         disparity.filter(|_| params.shear),
     )?;
     info.reflectance_filter = filter_info;
     lap(&mut info, "filter reflectance");
-    let (reflectance, shading_data) = layers::compose(lf, &s0, &log_r_hat, params.unlit_as_missing);
+    let (reflectance, shading_data) = layers::compose(lf, &s0, &log_r_hat, unlit.as_deref());
     let shading = LightField::from_vec(
         lf.rows(),
         lf.cols(),

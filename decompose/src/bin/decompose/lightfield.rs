@@ -148,11 +148,11 @@ impl LightFieldInputArgs {
 
     /// Reads the views and the centre-view disparity: the given file, else the folder's
     /// `gt_disp_lowres.pfm`, else estimated from the epipolar-plane images when the caller
-    /// (`needs_disparity`, e.g. an edit carrying a region) or an enabled option needs one.
+    /// (`caller_needs_it`, e.g. an edit carrying a region) or an enabled option needs one.
     /// Also says which ([`ESTIMATED`] for the estimate).
     pub(crate) fn load(
         &self,
-        needs_disparity: bool,
+        caller_needs_it: bool,
     ) -> Result<(LightFieldFolder, Option<Image>, &'static str)> {
         let layout = self.grid.map(|g| FolderLayout::Grid {
             rows: g.rows,
@@ -182,7 +182,7 @@ impl LightFieldInputArgs {
             }
             None => match &folder.disparity {
                 Some(d) => (Some(d.clone()), "the folder's gt_disp_lowres.pfm"),
-                None if !needs_disparity && !self.needs_disparity() => (
+                None if !caller_needs_it && !self.needs_disparity() => (
                     None,
                     "none (without a disparity file the occlusion cue is off)",
                 ),

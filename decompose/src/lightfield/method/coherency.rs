@@ -15,18 +15,18 @@ use rayon::prelude::*;
 use crate::error::Result;
 use crate::image::neighbours4;
 use crate::lightfield::LightField;
-use crate::lightfield::tvl1::{TvL1Info, TvL1Params, tv_l1_sheared, tv_l1_with_unknown};
+use crate::lightfield::tvl1::{TvL1Info, TvL1Params, tv_l1, tv_l1_sheared, tv_l1_with_unknown};
 
 /// `ln ‖R̂₁‖₂` for every ray: `ln ‖L‖₂ − s` (`log_norm`, `log_shading`, one value per ray of
 /// `shape`, row-major views) filtered in 4D with `params`, or unfiltered when `params` is
-/// `None` (the "no 4D filter" ablation). The rays marked `unknown` (no light) are filled in by
-/// the filter; with `sheared_by` its angular differences follow that disparity.
+/// `None` (the "no 4D filter" ablation). The rays marked in `unknown` (no light), if any, are
+/// filled in by the filter; with `sheared_by` its angular differences follow that disparity.
 pub(super) fn filtered_log_reflectance(
     shape: &LightField,
     log_norm: &[f32],
     log_shading: &[f32],
     params: Option<&TvL1Params>,
-    unknown: &[bool],
+    unknown: Option<&[bool]>,
     sheared_by: Option<&LightField>,
 ) -> Result<(Vec<f32>, Option<TvL1Info>)> {
     let mut log_r: Vec<f32> = log_norm
@@ -34,12 +34,14 @@ pub(super) fn filtered_log_reflectance(
         .zip(log_shading.par_iter())
         .map(|(&i, &s)| i - s)
         .collect();
-    fill_unknown(
-        &mut log_r,
-        unknown,
-        shape.width() as usize,
-        shape.height() as usize,
-    );
+    if let Some(unknown) = unknown {
+        fill_unknown(
+            &mut log_r,
+            unknown,
+            shape.width() as usize,
+            shape.height() as usize,
+        );
+    }
     let Some(params) = params else {
         return Ok((log_r, None));
     };
@@ -52,8 +54,11 @@ pub(super) fn filtered_log_reflectance(
         log_r,
     )?;
     let (out, info) = match sheared_by {
-        Some(disparity) => tv_l1_sheared(&one, disparity, Some(unknown), params)?,
-        None => tv_l1_with_unknown(&one, unknown, params)?,
+        Some(disparity) => tv_l1_sheared(&one, disparity, unknown, params)?,
+        None => match unknown {
+            Some(unknown) => tv_l1_with_unknown(&one, unknown, params)?,
+            None => tv_l1(&one, params)?,
+        },
     };
     Ok((out.into_vec(), Some(info)))
 }
@@ -64,7 +69,7 @@ pub(super) fn filtered_log_reflectance(
 /// the meaningless data. A view with no known value is left as it is.
 fn fill_unknown(values: &mut [f32], unknown: &[bool], width: usize, height: usize) {
     let n = width * height;
-    if n == 0 || !unknown.contains(&true) {
+    if n == 0 {
         return;
     }
     values

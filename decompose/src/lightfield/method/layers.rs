@@ -11,8 +11,8 @@ use crate::lightfield::LightField;
 /// `(R_f, S_f)` (3 and 1 values per ray) from the input `lf`, `‖L̂‖₂` per ray (`norm`) and
 /// `ln ‖R̂₁‖₂` per ray (`log_r_hat`).
 ///
-/// With `unlit_as_missing`, a ray with no light (`‖L̂‖ = 0`, e.g. a shadow that is black in an
-/// 8-bit file), which says nothing about its reflectance, takes the filtered reflectance as a
+/// A ray marked in `unlit` (no light, `‖L̂‖ = 0`, e.g. a shadow that is black in an 8-bit
+/// file), which says nothing about its reflectance, takes the filtered reflectance as a
 /// grey (`‖R‖ = ‖R̂₁‖`) and zero shading, rather than the black reflectance of the thesis'
 /// `L / S_f` that no other view of the point agrees with. Elsewhere the shading is floored at
 /// `SHADING_FLOOR` of the input's maximum.
@@ -20,7 +20,7 @@ pub(super) fn compose(
     lf: &LightField,
     norm: &[f32],
     log_r_hat: &[f32],
-    unlit_as_missing: bool,
+    unlit: Option<&[bool]>,
 ) -> (LightField, Vec<f32>) {
     let input_max = lf.data().iter().copied().fold(0.0f32, f32::max);
     let s_floor = (input_max * SHADING_FLOOR).max(f32::MIN_POSITIVE);
@@ -31,9 +31,10 @@ pub(super) fn compose(
         .par_chunks_exact_mut(3)
         .zip(shading.par_iter_mut())
         .zip(norm.par_iter().zip(log_r_hat.par_iter()))
-        .for_each(|((p, s), (&l, &r))| {
+        .enumerate()
+        .for_each(|(i, ((p, s), (&l, &r)))| {
             let r_norm = r.exp().max(f32::MIN_POSITIVE);
-            if unlit_as_missing && l <= 0.0 {
+            if unlit.is_some_and(|u| u[i]) {
                 *s = 0.0;
                 let grey = if r_norm.is_finite() {
                     r_norm / 3f32.sqrt()
