@@ -6,7 +6,7 @@
 //!
 //! `cargo run --release -p decompose --example lightfield_cv -- .cache/rendered-lightfields/tune`
 //! (`--json FILE` also writes every score; `--only TEXT` runs the settings whose name contains
-//! TEXT, e.g. `--only "prior zhao"`; `--mu` runs the grid of the data term's `μ` instead).
+//! TEXT, e.g. `--only "prior zhao"`; `--mu` runs the grid of the data term's `μ` instead, `--crease` that of the crease cue's step).
 //!
 //! The grid spans the choices that decide coherence and accuracy: the centre-view Retinex prior
 //! (`LightFieldParams::retinex_prior`), the sheared filter (`LightFieldParams::shear`), the
@@ -72,6 +72,19 @@ fn mu_grid() -> Vec<(String, LightFieldParams)> {
     out
 }
 
+/// `--crease`: the crease cue's slope step (`CueParams::crease_step`), every other choice at
+/// its default.
+fn crease_grid() -> Vec<(String, LightFieldParams)> {
+    [None, Some(1e-3), Some(1e-2), Some(3e-2)]
+        .into_iter()
+        .map(|crease_step| {
+            let mut p = LightFieldParams::default();
+            p.cues.crease_step = crease_step;
+            (format!("crease {crease_step:?}"), p)
+        })
+        .collect()
+}
+
 fn scenes(root: &Path) -> Vec<PathBuf> {
     let mut found: Vec<PathBuf> = std::fs::read_dir(root)
         .expect("reading the tuning folder")
@@ -102,6 +115,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .unwrap_or_default();
     let grid = if args.iter().any(|a| a == "--mu") {
         mu_grid()
+    } else if args.iter().any(|a| a == "--crease") {
+        crease_grid()
     } else {
         grid()
     };

@@ -100,6 +100,15 @@ fn lightfield_writes_every_view_under_its_input_name() {
         String::from_utf8_lossy(&forced.stderr)
     );
     assert!(!out.join("reflectance/input_Cam000.tiff").exists());
+    let forced_stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
+    // The default has the crease cue (on with the occlusion cue's disparity).
+    assert!(
+        forced_stats["params"]
+            .as_str()
+            .unwrap()
+            .contains("crease_step: Some(0.01)")
+    );
     // The options that are off by default reach the method and say so in stats.json.
     let options = dir.path().join("options");
     let o = decompose(&[
@@ -112,6 +121,7 @@ fn lightfield_writes_every_view_under_its_input_name() {
         os("--retinex-prior"),
         os("--white-black-cue"),
         os("--no-unlit-fill"),
+        os("--no-crease-cue"),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stats: serde_json::Value =
@@ -122,6 +132,7 @@ fn lightfield_writes_every_view_under_its_input_name() {
         "level_prior: CentreRetinex",
         "white_black_cue: true",
         "unlit_as_missing: false",
+        "crease_step: None",
     ] {
         assert!(params.contains(needle), "{needle} not in {params}");
     }

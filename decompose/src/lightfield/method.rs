@@ -24,7 +24,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::LightField;
-use super::cues::{self, PairWeights};
+use super::cues::PairWeights;
 use super::retinex::{ViewSolveInfo, solve_view_with_target};
 use super::tvl1::{TvL1Info, tv_l1};
 use crate::decomposition::{Decomposition, SHADING_FLOOR};
@@ -229,6 +229,13 @@ pub fn decompose(
             .iter()
             .fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)))
     });
+    let source = weights::CueSource {
+        filtered: &filtered,
+        white,
+        disparity: disparity.zip(range).filter(|_| use_occlusion),
+        unlit: unlit.as_deref(),
+        params,
+    };
     // The data term's target of every ray, when not the thesis' log intensity.
     let prior: Option<Vec<f32>> = match (disparity, params.level_prior) {
         (Some(d), LevelPrior::CentreRetinex) => {
@@ -251,20 +258,7 @@ pub fn decompose(
             .par_iter()
             .map(|&(v, parent)| {
                 let view_i = &log_i[v * n..(v + 1) * n];
-                let rgb = filtered.view_data(v);
-                let scaled: Vec<f32> = rgb.iter().map(|x| x / white).collect();
-                let albedo =
-                    cues::albedo_cue(w, h, rgb, &scaled, &params.cues, params.white_black_cue);
-                let mut occlusion = match (use_occlusion, disparity, range) {
-                    (true, Some(d), Some(range)) => {
-                        cues::occlusion_cue(w, h, d.view_data(v), range, &params.cues)
-                    }
-                    _ => PairWeights::constant(w, h, 1.0),
-                };
-                if let Some(unlit) = &unlit {
-                    occlusion
-                        .damp_pairs_touching(&unlit[v * n..(v + 1) * n], params.cues.omega_occ);
-                }
+                let (albedo, occlusion) = source.view(v);
                 let start = match parent {
                     Some(p) => &log_s[p * n..(p + 1) * n],
                     None => view_i,
@@ -354,3 +348,4 @@ mod params;
 mod prior;
 #[cfg(test)]
 mod tests;
+mod weights;

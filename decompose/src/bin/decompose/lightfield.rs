@@ -74,9 +74,13 @@ pub(crate) struct LightFieldInputArgs {
     /// Ablation: no 4D filtering.
     #[arg(long)]
     pub(crate) no_4d_filter: bool,
-    /// Ablation: no occlusion cue.
+    /// Ablation: no occlusion cue (and so no crease cue either).
     #[arg(long)]
     pub(crate) no_occlusion_cue: bool,
+    /// Ablation: no crease cue (shading kept continuous where the disparity's slope changes,
+    /// as in the thesis).
+    #[arg(long)]
+    pub(crate) no_crease_cue: bool,
     /// Use the thesis' white/black cue (eq. 4.11; off by default, see the docs).
     #[arg(long)]
     pub(crate) white_black_cue: bool,
@@ -132,6 +136,9 @@ impl LightFieldInputArgs {
         });
         p.filter_4d = !self.no_4d_filter;
         p.occlusion_cue = !self.no_occlusion_cue && !estimated;
+        if self.no_crease_cue {
+            p.cues.crease_step = None;
+        }
         p.white_black_cue = self.white_black_cue;
         p.unlit_as_missing = !self.no_unlit_fill;
         if self.retinex_prior {

@@ -30,6 +30,8 @@ pub(crate) enum LfMethod {
     No4dFilter,
     /// Ablation: no occlusion cue.
     NoOcclusionCue,
+    /// Ablation: no crease cue (as in the thesis).
+    NoCreaseCue,
     /// Ablation: with the thesis' white/black cue (off by default).
     WhiteBlackCue,
     /// Ablation: black (unlit) rays as data, as in the thesis.
@@ -48,6 +50,7 @@ impl LfMethod {
             LfMethod::Clustering => "per-view clustering",
             LfMethod::No4dFilter => "ours, no 4D filter",
             LfMethod::NoOcclusionCue => "ours, no occlusion cue",
+            LfMethod::NoCreaseCue => "ours, no crease cue",
             LfMethod::WhiteBlackCue => "ours, with white/black cue",
             LfMethod::NoUnlitFill => "ours, unlit rays as data",
             LfMethod::RetinexPrior => "ours, centre Retinex prior",
@@ -110,6 +113,7 @@ pub(crate) fn run_eval_lightfield(a: EvalLightFieldArgs) -> Result<()> {
             LfMethod::Clustering,
             LfMethod::No4dFilter,
             LfMethod::NoOcclusionCue,
+            LfMethod::NoCreaseCue,
             LfMethod::WhiteBlackCue,
             LfMethod::NoUnlitFill,
         ];
@@ -160,6 +164,11 @@ pub(crate) fn run_eval_lightfield(a: EvalLightFieldArgs) -> Result<()> {
                 LfMethod::NoOcclusionCue => ours(LightFieldParams {
                     occlusion_cue: false,
                     ..Default::default()
+                }),
+                LfMethod::NoCreaseCue => ours({
+                    let mut p = LightFieldParams::default();
+                    p.cues.crease_step = None;
+                    p
                 }),
                 LfMethod::WhiteBlackCue => ours(LightFieldParams {
                     white_black_cue: true,

@@ -203,3 +203,58 @@ fn a_black_view_is_filled_from_the_others() {
         }
     }
 }
+
+/// Two walls meeting in a vertical crease, one lit at full strength and one at 0.4, with a
+/// change of colour (of equal brightness) along the crease: the shading step stays in the
+/// shading with the crease cue, and goes into the reflectance without it (the albedo cue keeps
+/// the shading smooth across a colour change).
+#[test]
+fn the_shading_step_at_a_crease_stays_in_the_shading() {
+    let (w, h) = (40usize, 24usize);
+    let crease = 20;
+    // Unit-norm colours on either side; the disparity's slope turns at the crease.
+    let (left, right) = ([0.6f32, 0.6, 0.529], [0.529f32, 0.6, 0.6]);
+    let mut rgb = Vec::with_capacity(w * h * 3);
+    let mut disp = Vec::with_capacity(w * h);
+    for p in 0..w * h {
+        let x = p % w;
+        let (c, s) = if x < crease {
+            (left, 1.0)
+        } else {
+            (right, 0.4)
+        };
+        rgb.extend(c.map(|v| v * s));
+        let bar = p / w < 4;
+        disp.push(if bar {
+            2.0
+        } else {
+            0.02 * (x as f32 - crease as f32 + 0.5).abs()
+        });
+    }
+    let lf = LightField::from_vec(1, 1, w as u32, h as u32, 3, rgb).unwrap();
+    let disparity = LightField::from_vec(1, 1, w as u32, h as u32, 1, disp).unwrap();
+    let ratio = |p: &LightFieldParams| {
+        let (d, _) = decompose(&lf, Some(&disparity), p, &mut |_| {}).unwrap();
+        let s = d.shading.data();
+        let mean = |xs: std::ops::Range<usize>| {
+            let v: Vec<f32> = (6..h)
+                .flat_map(|y| xs.clone().map(move |x| y * w + x))
+                .map(|p| s[p])
+                .collect();
+            v.iter().sum::<f32>() / v.len() as f32
+        };
+        mean(crease + 4..w - 4) / mean(4..crease - 4)
+    };
+    let with_cue = ratio(&quick());
+    let mut without = quick();
+    without.cues.crease_step = None;
+    let without_cue = ratio(&without);
+    assert!(
+        (with_cue - 0.4).abs() < 0.08,
+        "with the crease cue: {with_cue}"
+    );
+    assert!(
+        without_cue > 0.5,
+        "without the crease cue: {without_cue} (with: {with_cue})"
+    );
+}
