@@ -117,9 +117,10 @@ pub struct CueParams {
     /// shading, jumps, where the gradient cues would keep the shading smooth; on a plane the
     /// disparity is affine in the image, so its slope does not change. It needs the same
     /// disparity as the occlusion cue and is off with it. `None`: no crease cue. Default 0.01,
-    /// chosen by leave-one-scene-out cross-validation on the 16 rendered tuning scenes among
-    /// off / 1e-3 / 1e-2 (mean LMSE 0.0378 / 0.0376 / 0.0370, incoherence 0.0046 / 0.0024 /
-    /// 0.0028; docs/intrinsic-lightfields.md).
+    /// chosen by leave-one-scene-out cross-validation on LMSE + incoherence on the 16 rendered
+    /// tuning scenes among off / 1e-3 / 1e-2 / 3e-2 (every fold; mean LMSE 0.0378 / 0.0376 /
+    /// 0.0370 / 0.0366, incoherence 0.0046 / 0.0024 / 0.0028 / 0.0046;
+    /// docs/intrinsic-lightfields.md).
     pub crease_step: Option<f32>,
 }
 

@@ -250,7 +250,7 @@ fn the_shading_step_at_a_crease_stays_in_the_shading() {
     without.cues.crease_step = None;
     let without_cue = ratio(&without);
     assert!(
-        (with_cue - 0.4).abs() < 0.08,
+        (with_cue - 0.4).abs() < 0.04,
         "with the crease cue: {with_cue}"
     );
     assert!(
