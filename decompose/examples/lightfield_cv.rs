@@ -6,7 +6,8 @@
 //!
 //! `cargo run --release -p decompose --example lightfield_cv -- .cache/rendered-lightfields/tune`
 //! (`--json FILE` also writes every score; `--only TEXT` runs the settings whose name contains
-//! TEXT, e.g. `--only "prior zhao"`; `--mu` runs the grid of the data term's `μ` instead, `--crease` that of the crease cue's step).
+//! TEXT, e.g. `--only "prior zhao"`; `--mu` runs the grid of the data term's `μ` instead,
+//! `--crease` that of the crease cue's step).
 //!
 //! The grid spans the choices that decide coherence and accuracy: the centre-view Retinex prior
 //! (`LightFieldParams::retinex_prior`), the sheared filter (`LightFieldParams::shear`), the

@@ -88,7 +88,8 @@ impl PairWeights {
     }
 }
 
-/// Parameters of the cues; `Default` holds the thesis' values.
+/// Parameters of the cues; `Default` holds the thesis' values except where a field says
+/// otherwise (`θ_a`, the crease cue).
 #[derive(Clone, Debug, PartialEq)]
 pub struct CueParams {
     /// `θ_a`: colour-line angle (radians) above which a pair is a reflectance change, eq. 4.10.

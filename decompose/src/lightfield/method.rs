@@ -12,7 +12,8 @@
 //!
 //! Not in the thesis ([`LightFieldParams`] says why, with the figures): rays with no light are
 //! missing data (their pairs damped in step 3, their reflectance filled in by step 4's filter,
-//! `method::layers`); and two options, a disparity-sheared filter in step 4
+//! `method::layers`); creases, where the disparity's slope turns, damped like occlusions
+//! ([`super::cues::crease_cue`]); and two options, a disparity-sheared filter in step 4
 //! ([`super::tvl1::tv_l1_sheared`]) and Zhao et al.'s centre-view Retinex as step 3's level
 //! prior (`method::prior`).
 //!

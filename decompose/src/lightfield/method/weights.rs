@@ -1,5 +1,6 @@
-//! The pair weights of one view's solve (step 2 of Algorithm 2): the albedo cue and the
-//! occlusion cue, with the pairs touching unlit rays damped like occlusions.
+//! The pair weights of one view's solve (step 2 of Algorithm 2): the albedo cue `ω^a`, and
+//! `ω^occ` from the occlusion cue, the crease cue (not in the thesis) and the pairs touching
+//! unlit rays, all damped alike.
 
 use super::super::LightField;
 use super::super::cues::{self, PairWeights};
@@ -11,11 +12,12 @@ pub(super) struct CueSource<'a> {
     pub filtered: &'a LightField,
     /// `L̂`'s white (its 99.5th percentile channel value), for the CIELab probabilities.
     pub white: f32,
-    /// Every view's disparity and the light field's disparity range, when the occlusion cue is
-    /// used.
+    /// Every view's disparity and the light field's disparity range, when the occlusion cue
+    /// (and with it the crease cue) is used.
     pub disparity: Option<(&'a LightField, (f32, f32))>,
     /// Rays with no light (views-major), when there are any.
     pub unlit: Option<&'a [bool]>,
+    /// The cues' switches and parameters.
     pub params: &'a LightFieldParams,
 }
 
