@@ -56,6 +56,8 @@ fn lightfield_writes_every_view_under_its_input_name() {
     assert_eq!(stats["grid"], serde_json::json!([5, 5]));
     assert_eq!(stats["disparity"], "the folder's gt_disp_lowres.pfm");
     assert_eq!(stats["run"]["views"].as_array().unwrap().len(), 25);
+    // The fixture's disparity is precise enough for the crease cue, which is on by default.
+    assert_eq!(stats["run"]["crease_cue"], true);
     // The float TIFFs multiply back to the (sRGB-decoded) input, view by view.
     let lin = LoadOptions {
         linear: true,
@@ -102,13 +104,14 @@ fn lightfield_writes_every_view_under_its_input_name() {
     assert!(!out.join("reflectance/input_Cam000.tiff").exists());
     let forced_stats: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
-    // The default has the crease cue (on with the occlusion cue's disparity).
+    // The crease cue's step keeps its default, but without the occlusion cue it is not used.
     assert!(
         forced_stats["params"]
             .as_str()
             .unwrap()
             .contains("crease_step: Some(0.01)")
     );
+    assert_eq!(forced_stats["run"]["crease_cue"], false);
     // The options that are off by default reach the method and say so in stats.json.
     let options = dir.path().join("options");
     let o = decompose(&[

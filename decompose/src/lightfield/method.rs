@@ -25,7 +25,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::LightField;
-use super::cues::PairWeights;
+use super::cues::{self, PairWeights};
 use super::retinex::{ViewSolveInfo, solve_view_with_target};
 use super::tvl1::{TvL1Info, tv_l1};
 use crate::decomposition::{Decomposition, SHADING_FLOOR};
@@ -66,6 +66,9 @@ pub struct LightFieldInfo {
     pub views: Vec<ViewSolveInfo>,
     /// Whether an occlusion cue was used (a disparity was given and the cue is on).
     pub occlusion_cue: bool,
+    /// Whether the crease cue was used: with the occlusion cue, when the disparity is precise
+    /// enough ([`super::cues::disparity_sees_planes`]).
+    pub crease_cue: bool,
     /// Pairs marked as reflectance changes, fraction of all pairs (all views).
     pub albedo_pair_fraction: f64,
     /// Pairs marked as occlusions, fraction of all pairs (all views).
@@ -230,10 +233,21 @@ pub fn decompose(
             .iter()
             .fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)))
     });
+    // The crease cue, with the occlusion cue, when the disparity is precise enough to see planes
+    // (its centre view is enough to tell).
+    let centre = lf.view_index(lf.rows() / 2, lf.cols() / 2);
+    let crease_step = match (use_occlusion, disparity, params.cues.crease_step) {
+        (true, Some(d), Some(step)) => {
+            cues::disparity_sees_planes(w, h, d.view_data(centre), step).then_some(step)
+        }
+        _ => None,
+    };
+    info.crease_cue = crease_step.is_some();
     let source = weights::CueSource {
         filtered: &filtered,
         white,
         disparity: disparity.zip(range).filter(|_| use_occlusion),
+        crease_step,
         unlit: unlit.as_deref(),
         params,
     };

@@ -15,6 +15,8 @@ pub(super) struct CueSource<'a> {
     /// Every view's disparity and the light field's disparity range, when the occlusion cue
     /// (and with it the crease cue) is used.
     pub disparity: Option<(&'a LightField, (f32, f32))>,
+    /// The crease cue's step, when the cue is used ([`cues::crease_cue`]).
+    pub crease_step: Option<f32>,
     /// Rays with no light (views-major), when there are any.
     pub unlit: Option<&'a [bool]>,
     /// The cues' switches and parameters.
@@ -36,7 +38,7 @@ impl CueSource<'_> {
         let mut occlusion = match self.disparity {
             Some((d, range)) => {
                 let mut occ = cues::occlusion_cue(w, h, d.view_data(v), range, &params.cues);
-                if let Some(step) = params.cues.crease_step {
+                if let Some(step) = self.crease_step {
                     let crease =
                         cues::crease_cue(w, h, d.view_data(v), step, params.cues.omega_occ);
                     occ.keep_smaller(&crease);
