@@ -194,9 +194,32 @@ pub fn albedo_cue(
     })
 }
 
+/// The change of the disparity's slope across the pair `(p, p + stride)` (`stride` 1: the
+/// horizontal pair, `width`: the vertical one), the slopes measured one pixel outside the pair
+/// on either side; `None` for a pair at the border, where one side has no slope.
+fn slope_change(
+    width: usize,
+    height: usize,
+    disparity: &[f32],
+    p: usize,
+    stride: usize,
+) -> Option<f32> {
+    let (x, y) = (p % width, p / width);
+    let inside = if stride == 1 {
+        x >= 1 && x + 2 < width
+    } else {
+        y >= 1 && y + 2 < height
+    };
+    let q = p + stride;
+    inside.then(|| {
+        let slope_before = disparity[p] - disparity[p - stride];
+        let slope_after = disparity[q + stride] - disparity[q];
+        (slope_after - slope_before).abs()
+    })
+}
+
 /// The crease cue of one view: `ω_occ` on the pairs across which the disparity's slope changes
-/// by more than `step` (the slopes measured one pixel outside the pair on either side), 1
-/// elsewhere and on the pairs at the border.
+/// by more than `step` ([`slope_change`]), 1 elsewhere and on the pairs at the border.
 pub fn crease_cue(
     width: usize,
     height: usize,
@@ -205,49 +228,22 @@ pub fn crease_cue(
     omega_occ: f32,
 ) -> PairWeights {
     PairWeights::from_pairs(width, height, |p, q| {
-        let stride = q - p;
-        let (x, y) = (p % width, p / width);
-        let (before, after) = if stride == 1 {
-            (x >= 1, x + 2 < width)
-        } else {
-            (y >= 1, y + 2 < height)
-        };
-        if !(before && after) {
-            return 1.0;
-        }
-        let slope_before = disparity[p] - disparity[p - stride];
-        let slope_after = disparity[q + stride] - disparity[q];
-        if (slope_after - slope_before).abs() > step {
-            omega_occ
-        } else {
-            1.0
+        match slope_change(width, height, disparity, p, q - p) {
+            Some(change) if change > step => omega_occ,
+            _ => 1.0,
         }
     })
 }
 
-/// The disparity's slope change across every interior pair of one view (horizontal pairs, then
-/// vertical ones), as [`crease_cue`] measures it.
+/// The slope change of every interior pair of one view ([`slope_change`]).
 fn slope_changes(width: usize, height: usize, disparity: &[f32]) -> Vec<f32> {
-    let mut out = Vec::new();
-    for y in 0..height {
-        for x in 1..width.saturating_sub(2) {
-            let p = y * width + x;
-            out.push(
-                ((disparity[p + 2] - disparity[p + 1]) - (disparity[p] - disparity[p - 1])).abs(),
-            );
-        }
-    }
-    for y in 1..height.saturating_sub(2) {
-        for x in 0..width {
-            let p = y * width + x;
-            let w = width;
-            out.push(
-                ((disparity[p + 2 * w] - disparity[p + w]) - (disparity[p] - disparity[p - w]))
-                    .abs(),
-            );
-        }
-    }
-    out
+    (0..width * height)
+        .flat_map(|p| {
+            let right = slope_change(width, height, disparity, p, 1);
+            let down = slope_change(width, height, disparity, p, width);
+            right.into_iter().chain(down)
+        })
+        .collect()
 }
 
 /// Whether a view's disparity is precise enough for the crease cue: on at least three quarters
