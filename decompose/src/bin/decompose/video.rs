@@ -47,6 +47,10 @@ pub(crate) struct VideoArgs {
     /// The ffmpeg program (decoding a video input, --video).
     #[arg(long, default_value = "ffmpeg")]
     ffmpeg: PathBuf,
+    /// Output the propagated decomposition as the thesis does: no blend with each frame's own
+    /// single-image decomposition and no averaging along the flow (step 8).
+    #[arg(long)]
+    no_blend: bool,
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
@@ -240,10 +244,14 @@ pub(crate) fn run_video(a: VideoArgs) -> Result<()> {
         pb.set_position((p.fraction * 100.0) as u64);
         pb.set_message(p.stage);
     };
+    let params = VideoParams {
+        fusion: (!a.no_blend).then(Default::default),
+        ..Default::default()
+    };
     let stats = decompose_video(
         &source,
         &strokes,
-        &VideoParams::default(),
+        &params,
         &work.join("state"),
         &mut sink,
         &mut report,
@@ -258,6 +266,7 @@ pub(crate) fn run_video(a: VideoArgs) -> Result<()> {
     json["width"] = w.into();
     json["height"] = h.into();
     json["shading_scale"] = sink.shading_scale.map_or(1.0, |s| 1.0 / s).into();
+    json["per_frame_blend"] = params.fusion.is_some().into();
     json["output_encoding"] = if a.output.linear_output {
         "linear"
     } else {

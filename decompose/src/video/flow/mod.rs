@@ -73,6 +73,7 @@
 //! time (0.12–0.13 s) but move 0.05–0.06 px away from the defaults' flow on `vtest.avi` and
 //! up to 0.5 px from OpenCV's on the crops.
 
+mod invert;
 mod params;
 mod plane;
 mod tvl1;
@@ -90,6 +91,7 @@ use crate::color::{linear_to_srgb, luminance};
 use crate::error::{Error, Result};
 use crate::image::Image;
 
+pub use invert::invert;
 pub use params::TvL1FlowParams;
 use plane::Plane;
 

@@ -14,6 +14,7 @@ use crate::video::propagate::{ClusterTables, PropagateParams, propagate, should_
 
 use super::complete::complete_frame;
 use super::first::FIRST_FRAME_SHARE;
+use super::fusion::single_view_shading;
 use super::state::{FrameState, PixelSource, Scratch};
 use super::{FrameStats, VideoParams};
 
@@ -112,6 +113,24 @@ impl Run<'_> {
         Ok(added)
     }
 
+    /// Whether step 8 wants each frame's single-image shading (it is on and blends).
+    fn wants_views(&self) -> bool {
+        self.params.fusion.as_ref().is_some_and(|f| f.beta > 0.0)
+    }
+
+    /// Computes and caches frame `t`'s single-image shading (step 8) unless cached.
+    fn cache_view(&self, t: usize, img: &Image) -> Result<f64> {
+        let t0 = Instant::now();
+        if self.scratch.has_view_shading(t) {
+            return Ok(0.0);
+        }
+        if let Some(p) = &self.params.fusion {
+            let v = single_view_shading(img, &p.view)?;
+            self.scratch.save_view_shading(t, img.dims(), &v)?;
+        }
+        Ok(ms(t0))
+    }
+
     /// One forward pass (`pass` = 0, 1, 2): frames 1..n in order; see the module docs.
     pub fn forward_pass(&mut self, pass: usize, progress: ProgressFn) -> Result<()> {
         let n = self.source.len();
@@ -125,12 +144,41 @@ impl Run<'_> {
         } else {
             None
         };
-        if let Some(img1) = next_img
-            .as_ref()
-            .filter(|_| !self.scratch.has_flow(0, true))
-        {
-            // Frame 1's flow has nothing to overlap with (later passes find it cached).
-            self.flow(0, 1, &prev_img, img1)?;
+        // Step 8's single-image shading of frames 0 and 1 beside frame 1's flow, which has
+        // nothing else to overlap with (later passes find both cached).
+        let views = self.wants_views() && pass == VIEW_PASS;
+        let (first_views, flow01) = rayon::join(
+            || -> Result<[f64; 2]> {
+                let mut took = [0.0; 2];
+                if views {
+                    took[0] = self.cache_view(0, &prev_img)?;
+                    if let Some(img1) = next_img.as_ref() {
+                        took[1] = self.cache_view(1, img1)?;
+                    }
+                }
+                Ok(took)
+            },
+            || {
+                next_img
+                    .as_ref()
+                    .filter(|_| {
+                        !self.scratch.has_flow(0, true) && !self.params.ablation.no_optical_flow
+                    })
+                    .map(|img1| {
+                        let t0 = Instant::now();
+                        flow(&prev_img, img1, &self.params.flow).map(|f| (f, ms(t0)))
+                    })
+            },
+        );
+        let took = first_views?;
+        self.stats[0].view_ms += took[0];
+        if n > 1 {
+            self.stats[1].view_ms += took[1];
+        }
+        if let Some(f) = flow01 {
+            let (f, took) = f?;
+            self.scratch.save_flow(0, true, &f)?;
+            self.stats[1].flow_ms += took;
         }
         for t in 1..n {
             let img = match next_img.take() {
@@ -148,21 +196,37 @@ impl Run<'_> {
             let prefetch = next_img.as_ref().filter(|_| {
                 !self.params.ablation.no_optical_flow && !self.scratch.has_flow(t, true)
             });
+            // Step 8's single-image shading of frame t + 1, beside this frame's propagation in
+            // the pass of `VIEW_PASS`.
+            let view_ahead = next_img
+                .as_ref()
+                .filter(|_| views && !self.scratch.has_view_shading(t + 1));
             let flow_params = self.params.flow.clone();
+            let fusion_params = self.params.fusion.clone();
             let (ahead, this) = rayon::join(
                 || {
-                    prefetch.map(|next| {
+                    let f = prefetch.map(|next| {
                         let t0 = Instant::now();
                         flow(&img, next, &flow_params).map(|f| (f, ms(t0)))
-                    })
+                    });
+                    let v = view_ahead.zip(fusion_params.as_ref()).map(|(next, p)| {
+                        let t0 = Instant::now();
+                        single_view_shading(next, &p.view).map(|v| (v, ms(t0)))
+                    });
+                    (f, v)
                 },
                 || self.forward_frame(t, &pp, &img, &prev, &prev_img, &mut last_stop),
             );
             let state = this?;
-            if let Some(ahead) = ahead {
-                let (f, took) = ahead?;
+            if let Some(f) = ahead.0 {
+                let (f, took) = f?;
                 self.scratch.save_flow(t, true, &f)?;
                 self.stats[t + 1].flow_ms += took;
+            }
+            if let Some(v) = ahead.1 {
+                let (v, took) = v?;
+                self.scratch.save_view_shading(t + 1, dims, &v)?;
+                self.stats[t + 1].view_ms += took;
             }
             progress(Progress {
                 stage: PASS_STAGES[pass],
@@ -325,3 +389,10 @@ pub(crate) fn pass_fraction(pass: usize, done: f32) -> f32 {
 
 /// The share of the progress bar given to the residual fill and the output.
 pub(crate) const OUTPUT_SHARE: f32 = 0.1;
+
+/// The pass whose frames also get step 8's single-image decomposition beside them: the third,
+/// whose flows are cached and which propagates into the fewest pixels. `bench --video`
+/// (800×600, 100 frames, 2026-12-05): 105–109 s in the first pass, whose flow already keeps
+/// the other core busy, 101 s in the second, 99 s in the third, 102 s split between the
+/// second and third; 83.5 s without step 8.
+const VIEW_PASS: usize = 2;

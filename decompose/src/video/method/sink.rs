@@ -12,7 +12,9 @@ use crate::error::Result;
 use crate::image::Image;
 use crate::progress::{Progress, ProgressFn};
 use crate::retinex::Strokes;
+use crate::video::flow::{Flow, invert};
 
+use super::fusion::Fusion;
 use super::levels::{self, LevelSummary};
 use super::passes;
 use super::residual;
@@ -93,6 +95,12 @@ pub struct FrameStats {
     /// Completion and residual fill of this frame (frame 0: its Retinex and clusters),
     /// milliseconds.
     pub complete_ms: f64,
+    /// Step 8's single-image decomposition of this frame (in the first pass, beside the
+    /// propagation), milliseconds; 0 when the step is off.
+    pub view_ms: f64,
+    /// Step 8's blend and average along the flow on this frame (in the output), milliseconds;
+    /// 0 when the step is off.
+    pub fusion_ms: f64,
 }
 
 /// What happened in a [`super::decompose_video`] run.
@@ -167,6 +175,8 @@ pub(crate) fn output(
         mean_abs_offset,
     };
     drop(evidence);
+    let mut fusion = run.params.fusion.as_ref().map(Fusion::new);
+    let stroked = stroke_pixels(strokes, dims);
     for t in 0..n {
         let img = run.source.frame(t)?;
         let mut st = run.scratch.load_state(t, dims)?;
@@ -178,6 +188,22 @@ pub(crate) fn output(
                 delta.iter_mut().for_each(|d| *d -= f64::from(q).ln());
                 st.shading.iter_mut().for_each(|s| *s *= q);
             }
+        }
+        if let Some(fusion) = fusion.as_mut() {
+            let t0 = Instant::now();
+            let back = back_flow(run, t, dims)?;
+            let keep = stroked.as_deref().filter(|_| t == 0);
+            let (view, view_ms) = match run.scratch.load_view_shading(t, dims)? {
+                Some(v) => (Some(v), 0.0),
+                None => {
+                    let t1 = Instant::now();
+                    let v = fusion.view(&img)?;
+                    (v, t1.elapsed().as_secs_f64() * 1e3)
+                }
+            };
+            fusion.fuse(&img, &mut st.shading, &back, view, keep)?;
+            run.stats[t].view_ms += view_ms;
+            run.stats[t].fusion_ms += t0.elapsed().as_secs_f64() * 1e3 - view_ms;
         }
         let reflectance = st.reflectance(&img);
         let shading = Image::from_vec(dims.0, dims.1, 1, std::mem::take(&mut st.shading))?;
@@ -195,3 +221,34 @@ pub(crate) fn output(
     }
     Ok(summary)
 }
+
+/// The flow from frame `t` back to `t − 1` for step 8: the cached backward flow, else the
+/// cached forward flow inverted, else (frame 0, or the no-flow ablation) the zero flow.
+fn back_flow(run: &passes::Run, t: usize, dims: (u32, u32)) -> Result<Flow> {
+    if t == 0 {
+        return Ok(Flow::zeros(dims.0, dims.1));
+    }
+    if let Some(b) = run.scratch.load_flow(t - 1, false, dims)? {
+        return Ok(b);
+    }
+    Ok(match run.scratch.load_flow(t - 1, true, dims)? {
+        Some(f) => invert(&f, INVERSION_STEPS),
+        None => Flow::zeros(dims.0, dims.1),
+    })
+}
+
+/// The pixels of the first frame's constant-albedo and constant-shading strokes, if any.
+fn stroke_pixels(strokes: &Strokes, dims: (u32, u32)) -> Option<Vec<bool>> {
+    let masks: Vec<_> = (strokes.constant_albedo.iter())
+        .chain(&strokes.constant_shading)
+        .filter(|m| m.dims() == dims)
+        .collect();
+    if masks.is_empty() {
+        return None;
+    }
+    let n = dims.0 as usize * dims.1 as usize;
+    Some((0..n).map(|i| masks.iter().any(|m| m.at(i))).collect())
+}
+
+/// Fixed-point steps of the flow inversion (`video::flow::invert`).
+const INVERSION_STEPS: usize = 3;

@@ -6,7 +6,9 @@
 //! - state `frame_NNNNNN.state` (magic `IVS1`): labels `u32 × n`, sources `u8 × n`, shading
 //!   `f32 × n` (9 bytes a pixel);
 //! - flow `fwd_NNNNNN.flow` (frame t to t + 1) and `bwd_NNNNNN.flow` (frame t + 1 to t), magic
-//!   `IVF1`: `u` then `v`, `f32 × n` each.
+//!   `IVF1`: `u` then `v`, `f32 × n` each;
+//! - step 8's single-image shading `view_NNNNNN.shading` (module `fusion`), magic `IVV1`:
+//!   `f32 × n`.
 //!
 //! The reflectance is not stored: it is `input / shading` of the re-read input frame.
 
@@ -139,6 +141,41 @@ impl Scratch {
     fn flow_path(&self, t: usize, forward: bool) -> PathBuf {
         let kind = if forward { "fwd" } else { "bwd" };
         self.dir.join(format!("{kind}_{t:06}.flow"))
+    }
+
+    fn view_path(&self, t: usize) -> PathBuf {
+        self.dir.join(format!("view_{t:06}.shading"))
+    }
+
+    /// Caches frame t's single-image shading (step 8).
+    pub fn save_view_shading(&self, t: usize, dims: (u32, u32), shading: &[f32]) -> Result<()> {
+        let mut buf = header(b"IVV1", dims.0, dims.1, 4 * shading.len());
+        for &x in shading {
+            buf.extend_from_slice(&x.to_le_bytes());
+        }
+        write(&self.view_path(t), &buf)
+    }
+
+    /// Whether frame t's single-image shading is cached.
+    pub fn has_view_shading(&self, t: usize) -> bool {
+        self.view_path(t).is_file()
+    }
+
+    /// Frame t's cached single-image shading, if computed.
+    pub fn load_view_shading(&self, t: usize, dims: (u32, u32)) -> Result<Option<Vec<f32>>> {
+        let path = self.view_path(t);
+        if !path.is_file() {
+            return Ok(None);
+        }
+        let bytes = read(&path)?;
+        let n = dims.0 as usize * dims.1 as usize;
+        Ok(Some(f32s(check_header(
+            &path,
+            &bytes,
+            b"IVV1",
+            dims,
+            4 * n,
+        )?)))
     }
 
     pub fn has_state(&self, t: usize) -> bool {

@@ -42,8 +42,8 @@ impl Runner {
 }
 
 /// The runs asked for: the methods in a fixed order, then with `ablations` the three
-/// ablations of Fig. 3.11, the method without its border levelling (the thesis' levels) and
-/// with the thesis' confidence test.
+/// ablations of Fig. 3.11, the method without its per-frame blend (step 8), without its border
+/// levelling (the thesis' levels) and with the thesis' confidence test.
 pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
     let mut wanted: Vec<VideoMethod> = if methods.is_empty() || methods.contains(&VideoMethod::All)
     {
@@ -92,6 +92,13 @@ pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
                 "ours, no optical flow",
                 with(Ablation {
                     no_optical_flow: true,
+                    ..Default::default()
+                }),
+            ),
+            Runner::Ours(
+                "ours, no per-frame blend (thesis)",
+                Box::new(VideoParams {
+                    fusion: None,
                     ..Default::default()
                 }),
             ),

@@ -142,5 +142,6 @@ fn per_frame_retinex(frames: &[Image]) -> Vec<crate::Decomposition> {
 
 mod equations;
 mod fixture;
+mod fusion;
 mod levels;
 mod sequences;

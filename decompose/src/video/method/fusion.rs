@@ -1,0 +1,264 @@
+//! Step 8 (not in the thesis): each frame's own single-image decomposition blended into the
+//! propagated one, then an average along the flow.
+//!
+//! Propagation (steps 4–6) carries the first frame's reflectance, clusters and levels to every
+//! later frame: it does not flicker, but every error of the first frame's decomposition stays
+//! for the whole video, and under a moving light or a moving object the colour table `𝓘_k`
+//! learnt on frame 0 meets colours it never saw. A single-image decomposition of frame `t`
+//! makes other errors, and flickers. On the twelve rendered tuning sequences the blend of the
+//! two beat each alone (`docs/video-data.md`), and averaging the blend along the flow takes
+//! most of the flicker back out.
+//!
+//! Per frame `t`, on the log shading (grey; `R = I / S` keeps `R × S = I` exact):
+//!
+//! 1. `s_v`: the shading of the light-field method ([`crate::lightfield::decompose`]) run on
+//!    the frame as a light field of one view. With one view and no disparity it is the
+//!    gradient-domain Retinex of thesis §4.3 with the colour-line albedo cue, and a 2D TV-L1 of
+//!    its log reflectance; 0.18 s at 800×600 on the 2 cores, against 1.25 s for Zhao's Retinex.
+//!    `s_v` is moved to the video's scale: the median of `s_v − s` over the lit pixels is
+//!    subtracted (the single view picks its own white point every frame; left in, that would
+//!    be a flicker of the whole frame).
+//! 2. The blend `s_b = (1 − β) s + β s_v`, with `s` the propagated log shading (steps 1–7).
+//! 3. The log reflectance level `d = ln Ī − s_b` (`Ī` the mean of the RGB channels) is
+//!    averaged along the flow: `D_t = (1 − α) D_{t−1}(p + b(p)) + α d_t(p)`, with `b` the flow
+//!    from frame `t` back to `t − 1` (bilinear). A pixel whose predecessor is out of the frame,
+//!    unlit, or differs from it in `ln Ī` by more than `gate` (an occlusion, a flow error, a
+//!    moving light) keeps `D_t = d_t`.
+//! 4. The frame's shading is `Ī / e^{D_t}`. Unlit pixels (`Ī = 0`) keep the propagated shading.
+//!
+//! Memory: the previous frame's `D` and `ln Ī` (8 bytes a pixel).
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::image::Image;
+use crate::lightfield::{LightField, LightFieldParams};
+use crate::video::flow::Flow;
+
+/// Parameters of step 8 ([`super::VideoParams::fusion`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FusionParams {
+    /// `β`: the single-image decomposition's weight in the log-shading blend, in [0, 1]
+    /// (0: the propagated shading only).
+    pub beta: f32,
+    /// `α`: the rate of the average along the flow, in (0, 1] (1: no averaging).
+    pub alpha: f32,
+    /// Largest `|ln Ī_t(p) − ln Ī_{t−1}(p + b(p))|` for the average to carry a pixel. Default 0.1.
+    pub gate: f32,
+    /// The single-image decomposition: the light-field method's parameters (one view, no
+    /// disparity). Default [`LightFieldParams::default`].
+    pub view: LightFieldParams,
+}
+
+impl Default for FusionParams {
+    fn default() -> Self {
+        Self {
+            beta: 0.5,
+            alpha: 0.1,
+            gate: 0.1,
+            view: LightFieldParams::default(),
+        }
+    }
+}
+
+impl FusionParams {
+    /// Errors with [`Error::InvalidParam`] naming the first value out of range.
+    pub fn validate(&self) -> Result<()> {
+        if !(0.0..=1.0).contains(&self.beta) {
+            return Err(Error::param("beta", self.beta, "must be in [0, 1]"));
+        }
+        if !(self.alpha > 0.0 && self.alpha <= 1.0) {
+            return Err(Error::param("alpha", self.alpha, "must be in (0, 1]"));
+        }
+        if !(self.gate.is_finite() && self.gate >= 0.0) {
+            return Err(Error::param("gate", self.gate, "must be finite and >= 0"));
+        }
+        self.view.reflectance_filter.validate()
+    }
+}
+
+/// Step 8's state between frames: the previous frame's `D` and `ln Ī` (NaN where unlit).
+pub(crate) struct Fusion<'a> {
+    params: &'a FusionParams,
+    previous: Option<(Vec<f32>, Vec<f32>)>,
+}
+
+impl<'a> Fusion<'a> {
+    /// Before the first frame.
+    pub fn new(params: &'a FusionParams) -> Self {
+        Self {
+            params,
+            previous: None,
+        }
+    }
+
+    /// The frame's single-image shading when the blend needs one (`β > 0`).
+    pub fn view(&self, frame: &Image) -> Result<Option<Vec<f32>>> {
+        if self.params.beta > 0.0 {
+            single_view_shading(frame, &self.params.view).map(Some)
+        } else {
+            Ok(None)
+        }
+    }
+
+    /// Replaces `shading` (one value per pixel of `frame`, the propagated linear shading) by
+    /// the fused one. Frames come in order; `back_flow` is the flow from this frame to the one
+    /// before (ignored for the first frame); `view`, the frame's [`single_view_shading`] if
+    /// already computed. Pixels in `keep` are not blended (the user's constant-albedo and
+    /// constant-shading strokes on the first frame, which the single-image decomposition does
+    /// not see).
+    pub fn fuse(
+        &mut self,
+        frame: &Image,
+        shading: &mut [f32],
+        back_flow: &Flow,
+        view: Option<Vec<f32>>,
+        keep: Option<&[bool]>,
+    ) -> Result<()> {
+        let log_i = log_mean_intensity(frame);
+        let view = match view {
+            Some(v) if v.len() == shading.len() => Some(v),
+            _ => self.view(frame)?,
+        };
+        let s = if let Some(view) = view {
+            blend(shading, &view, &log_i, self.params.beta, keep)
+        } else {
+            shading
+                .iter()
+                .map(|v| v.max(f32::MIN_POSITIVE).ln())
+                .collect()
+        };
+        let d: Vec<f32> = log_i.iter().zip(&s).map(|(i, s)| i - s).collect();
+        let fused = match &self.previous {
+            Some((prev_d, prev_i)) if self.params.alpha < 1.0 => average_along_flow(
+                prev_d,
+                prev_i,
+                &d,
+                &log_i,
+                back_flow,
+                self.params.alpha,
+                self.params.gate,
+            )?,
+            _ => d,
+        };
+        for ((out, &l), &f) in shading.iter_mut().zip(&log_i).zip(&fused) {
+            if l.is_finite() {
+                *out = (l - f).exp();
+            }
+        }
+        self.previous = Some((fused, log_i));
+        Ok(())
+    }
+}
+
+/// `ln` of the mean of the RGB channels, NaN where it is 0 (unlit).
+fn log_mean_intensity(frame: &Image) -> Vec<f32> {
+    frame
+        .data()
+        .par_chunks_exact(3)
+        .map(|p| {
+            let m = (p[0] + p[1] + p[2]) / 3.0;
+            if m > 0.0 { m.ln() } else { f32::NAN }
+        })
+        .collect()
+}
+
+/// The shading of the light-field method on `frame` as a light field of one view (step 8's
+/// single-image decomposition).
+pub(super) fn single_view_shading(frame: &Image, params: &LightFieldParams) -> Result<Vec<f32>> {
+    let (w, h) = frame.dims();
+    let lf = LightField::from_vec(1, 1, w, h, 3, frame.data().to_vec())?;
+    let (d, _) = crate::lightfield::decompose(&lf, None, params, &mut |_| {})?;
+    Ok(d.shading.view_data(0).to_vec())
+}
+
+/// `(1 − β) ln s + β (ln v − m)` per pixel, with `m` the median of `ln v − ln s` over the lit
+/// pixels (the view's shading moved to the propagated shading's scale); `ln s` where `keep`.
+pub(super) fn blend(
+    propagated: &[f32],
+    view: &[f32],
+    log_i: &[f32],
+    beta: f32,
+    keep: Option<&[bool]>,
+) -> Vec<f32> {
+    let ln = |v: f32| v.max(f32::MIN_POSITIVE).ln();
+    let mut diff: Vec<f32> = propagated
+        .iter()
+        .zip(view)
+        .zip(log_i)
+        .filter(|(_, l)| l.is_finite())
+        .map(|((&s, &v), _)| ln(v) - ln(s))
+        .collect();
+    let m = if diff.is_empty() {
+        0.0
+    } else {
+        let k = diff.len() / 2;
+        *diff.select_nth_unstable_by(k, f32::total_cmp).1
+    };
+    propagated
+        .iter()
+        .zip(view)
+        .enumerate()
+        .map(|(p, (&s, &v))| {
+            if keep.is_some_and(|k| k[p]) {
+                ln(s)
+            } else {
+                (1.0 - beta) * ln(s) + beta * (ln(v) - m)
+            }
+        })
+        .collect()
+}
+
+/// `D_t(p) = (1 − α) D_{t−1}(p + b(p)) + α d_t(p)` where the predecessor `p + b(p)` is inside
+/// the frame and lit and its `ln Ī` is within `gate` of `p`'s; `d_t(p)` elsewhere. Bilinear
+/// sampling; a NaN (unlit) corner makes the sample invalid.
+pub(super) fn average_along_flow(
+    prev_d: &[f32],
+    prev_log_i: &[f32],
+    d: &[f32],
+    log_i: &[f32],
+    back_flow: &Flow,
+    alpha: f32,
+    gate: f32,
+) -> Result<Vec<f32>> {
+    let (w, h) = (back_flow.width() as usize, back_flow.height() as usize);
+    let n = w * h;
+    if [prev_d.len(), prev_log_i.len(), d.len(), log_i.len()]
+        .iter()
+        .any(|&l| l != n)
+    {
+        return Err(Error::param(
+            "back_flow",
+            format!("{w}x{h}"),
+            "must have one vector per pixel of the frames being averaged",
+        ));
+    }
+    let sample = |data: &[f32], x: f32, y: f32| -> Option<f32> {
+        if !(x >= 0.0 && y >= 0.0 && x <= (w - 1) as f32 && y <= (h - 1) as f32) {
+            return None;
+        }
+        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+        let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+        let (tx, ty) = (x - x0 as f32, y - y0 as f32);
+        let at = |xx: usize, yy: usize| data[yy * w + xx];
+        let v = (at(x0, y0) * (1.0 - tx) + at(x1, y0) * tx) * (1.0 - ty)
+            + (at(x0, y1) * (1.0 - tx) + at(x1, y1) * tx) * ty;
+        v.is_finite().then_some(v)
+    };
+    Ok((0..n)
+        .into_par_iter()
+        .map(|p| {
+            if !log_i[p].is_finite() {
+                return d[p];
+            }
+            let [u, v] = [back_flow.u()[p], back_flow.v()[p]];
+            let (x, y) = ((p % w) as f32 + u, (p / w) as f32 + v);
+            match (sample(prev_d, x, y), sample(prev_log_i, x, y)) {
+                (Some(pd), Some(pi)) if (pi - log_i[p]).abs() <= gate => {
+                    (1.0 - alpha) * pd + alpha * d[p]
+                }
+                _ => d[p],
+            }
+        })
+        .collect())
+}
