@@ -63,6 +63,11 @@ fn video_writes_every_layer_of_every_frame_and_the_product_is_the_input() {
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
     assert_eq!(stats["frames"].as_array().unwrap().len(), 8);
+    // Step 8 ran on every frame.
+    assert_eq!(stats["per_frame_blend"], true);
+    for f in stats["frames"].as_array().unwrap() {
+        assert!(f["view_ms"].as_f64().unwrap() > 0.0, "{f}");
+    }
     let clusters = stats["clusters"].as_u64().unwrap() as usize;
     // The border levelling ran: touching pairs of clusters exist in a scene of several albedos.
     assert!(
@@ -98,6 +103,52 @@ fn video_writes_every_layer_of_every_frame_and_the_product_is_the_input() {
         let png = image::open(out.join("reflectance").join(name)).unwrap();
         assert!(matches!(png, image::DynamicImage::ImageRgb16(_)));
     }
+}
+
+#[test]
+fn no_blend_gives_the_propagated_decomposition() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = tiny().join("input");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            os("video"),
+            input.as_os_str(),
+            os("--out"),
+            out.as_os_str(),
+            os("--linear"),
+            os("--linear-output"),
+            os("-q"),
+        ];
+        args.extend(extra.iter().map(|a| os(a)));
+        let o = decompose(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        out
+    };
+    let (blended, thesis) = (run("blended", &[]), run("thesis", &["--no-blend"]));
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(thesis.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["per_frame_blend"], false);
+    for f in stats["frames"].as_array().unwrap() {
+        assert_eq!(f["view_ms"].as_f64().unwrap(), 0.0, "{f}");
+        assert_eq!(f["fusion_ms"].as_f64().unwrap(), 0.0, "{f}");
+    }
+    // The blend changes the shading of a later frame (the first frame's is the Retinex's
+    // blended with the single view, too).
+    let linear = LoadOptions {
+        linear: true,
+        ..Default::default()
+    };
+    let shading = |out: &Path| load_gray(out.join("shading").join("000005.tiff"), linear).unwrap();
+    let (a, b) = (shading(&blended), shading(&thesis));
+    let differ = (0..a.len())
+        .filter(|&p| (a.px(p)[0] / b.px(p)[0] - 1.0).abs() > 1e-3)
+        .count();
+    assert!(
+        differ > a.len() / 10,
+        "{differ} of {} pixels differ",
+        a.len()
+    );
 }
 
 #[test]
