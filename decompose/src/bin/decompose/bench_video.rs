@@ -125,8 +125,8 @@ pub(crate) fn bench_video(
     let first = stats.first_frame_ms / 1e3;
     // From frame 2 on, the flow to the next frame runs beside the current frame's
     // propagation and completion (`video::method`), so it is not part of the remainder.
-    // Step 8's single-image decompositions run beside the propagation too (after the flow);
-    // its blend is part of the output.
+    // Step 8's single-image decompositions run beside the third pass's propagation, so they
+    // are not part of the remainder either; its blend is part of the output.
     let other = (stats.total_ms / 1e3 - first - prop - complete - fusion).max(0.0);
     let mut table = String::new();
     table += &format!("{:<44} {:>9} {:>7}\n", "stage", "s", "%");

@@ -144,41 +144,21 @@ impl Run<'_> {
         } else {
             None
         };
-        // Step 8's single-image shading of frames 0 and 1 beside frame 1's flow, which has
-        // nothing else to overlap with (later passes find both cached).
-        let views = self.wants_views() && pass == VIEW_PASS;
-        let (first_views, flow01) = rayon::join(
-            || -> Result<[f64; 2]> {
-                let mut took = [0.0; 2];
-                if views {
-                    took[0] = self.cache_view(0, &prev_img)?;
-                    if let Some(img1) = next_img.as_ref() {
-                        took[1] = self.cache_view(1, img1)?;
-                    }
-                }
-                Ok(took)
-            },
-            || {
-                next_img
-                    .as_ref()
-                    .filter(|_| {
-                        !self.scratch.has_flow(0, true) && !self.params.ablation.no_optical_flow
-                    })
-                    .map(|img1| {
-                        let t0 = Instant::now();
-                        flow(&prev_img, img1, &self.params.flow).map(|f| (f, ms(t0)))
-                    })
-            },
-        );
-        let took = first_views?;
-        self.stats[0].view_ms += took[0];
-        if n > 1 {
-            self.stats[1].view_ms += took[1];
+        if let Some(img1) = next_img
+            .as_ref()
+            .filter(|_| !self.scratch.has_flow(0, true))
+        {
+            // Frame 1's flow has nothing to overlap with (later passes find it cached).
+            self.flow(0, 1, &prev_img, img1)?;
         }
-        if let Some(f) = flow01 {
-            let (f, took) = f?;
-            self.scratch.save_flow(0, true, &f)?;
-            self.stats[1].flow_ms += took;
+        // Step 8's single-image shading in the pass of `VIEW_PASS`: frames 0 and 1 here, each
+        // later one beside the propagation into the frame before it (below).
+        let views = self.wants_views() && pass == VIEW_PASS;
+        if views {
+            self.stats[0].view_ms += self.cache_view(0, &prev_img)?;
+            if let Some(img1) = next_img.as_ref() {
+                self.stats[1].view_ms += self.cache_view(1, img1)?;
+            }
         }
         for t in 1..n {
             let img = match next_img.take() {

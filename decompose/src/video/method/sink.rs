@@ -95,8 +95,8 @@ pub struct FrameStats {
     /// Completion and residual fill of this frame (frame 0: its Retinex and clusters),
     /// milliseconds.
     pub complete_ms: f64,
-    /// Step 8's single-image decomposition of this frame (in the first pass, beside the
-    /// propagation), milliseconds; 0 when the step is off.
+    /// Step 8's single-image decomposition of this frame (in the third pass, beside the
+    /// propagation into the frame before it), milliseconds; 0 when the step is off.
     pub view_ms: f64,
     /// Step 8's blend and average along the flow on this frame (in the output), milliseconds;
     /// 0 when the step is off.
