@@ -26,6 +26,20 @@ fn copy_frames(dir: &Path) -> PathBuf {
     to
 }
 
+/// `decompose video INPUT --out OUT --linear -q EXTRA…`.
+fn run_video(input: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        os("video"),
+        input.as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+        os("--linear"),
+        os("-q"),
+    ];
+    args.extend(extra.iter().map(|a| os(a)));
+    decompose(&args)
+}
+
 fn names(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
@@ -39,17 +53,11 @@ fn names(dir: &Path) -> Vec<String> {
 fn video_writes_every_layer_of_every_frame_and_the_product_is_the_input() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let o = decompose(&[
-        os("video"),
-        tiny().join("input").as_os_str(),
-        os("--out"),
-        out.as_os_str(),
-        os("--linear"),
-        os("--linear-output"),
-        os("--depth"),
-        os("16"),
-        os("-q"),
-    ]);
+    let o = run_video(
+        &tiny().join("input"),
+        &out,
+        &["--linear-output", "--depth", "16"],
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(names(dir.path()), ["out"], "no partial folder remains");
     let frames: Vec<String> = (0..8).map(|i| format!("{i:06}.png")).collect();
@@ -111,17 +119,7 @@ fn no_blend_gives_the_propagated_decomposition() {
     let input = tiny().join("input");
     let run = |name: &str, extra: &[&str]| {
         let out = dir.path().join(name);
-        let mut args = vec![
-            os("video"),
-            input.as_os_str(),
-            os("--out"),
-            out.as_os_str(),
-            os("--linear"),
-            os("--linear-output"),
-            os("-q"),
-        ];
-        args.extend(extra.iter().map(|a| os(a)));
-        let o = decompose(&args);
+        let o = run_video(&input, &out, &[&["--linear-output"], extra].concat());
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         out
     };
@@ -158,19 +156,8 @@ fn existing_output_is_kept_unless_forced() {
     std::fs::create_dir(&out).unwrap();
     std::fs::write(out.join("keep.txt"), "mine").unwrap();
     let run = |force: bool| {
-        let input = tiny().join("input");
-        let mut args = vec![
-            os("video"),
-            input.as_os_str(),
-            os("--out"),
-            out.as_os_str(),
-            os("--linear"),
-            os("-q"),
-        ];
-        if force {
-            args.push(os("--force"));
-        }
-        decompose(&args)
+        let extra: &[&str] = if force { &["--force"] } else { &[] };
+        run_video(&tiny().join("input"), &out, extra)
     };
     let o = run(false);
     let err = String::from_utf8_lossy(&o.stderr);

@@ -62,6 +62,11 @@ impl Default for FusionParams {
 }
 
 impl FusionParams {
+    /// Whether the blend uses a single-image decomposition at all (`β > 0`).
+    pub fn blends(&self) -> bool {
+        self.beta > 0.0
+    }
+
     /// Errors with [`Error::InvalidParam`] naming the first value out of range.
     pub fn validate(&self) -> Result<()> {
         if !(0.0..=1.0).contains(&self.beta) {
@@ -94,7 +99,7 @@ impl<'a> Fusion<'a> {
 
     /// The frame's single-image shading when the blend needs one (`β > 0`).
     pub fn view(&self, frame: &Image) -> Result<Option<Vec<f32>>> {
-        if self.params.beta > 0.0 {
+        if self.params.blends() {
             single_view_shading(frame, &self.params.view).map(Some)
         } else {
             Ok(None)
@@ -103,10 +108,10 @@ impl<'a> Fusion<'a> {
 
     /// Replaces `shading` (one value per pixel of `frame`, the propagated linear shading) by
     /// the fused one. Frames come in order; `back_flow` is the flow from this frame to the one
-    /// before (ignored for the first frame); `view`, the frame's [`single_view_shading`] if
-    /// already computed. Pixels in `keep` are not blended (the user's constant-albedo and
-    /// constant-shading strokes on the first frame, which the single-image decomposition does
-    /// not see).
+    /// before (ignored for the first frame); `view`, the frame's [`single_view_shading`]
+    /// ([`Fusion::view`]; `None`: no blend). Pixels in `keep` are not blended (the user's
+    /// constant-albedo and constant-shading strokes on the first frame, which the single-image
+    /// decomposition does not see).
     pub fn fuse(
         &mut self,
         frame: &Image,
@@ -116,10 +121,6 @@ impl<'a> Fusion<'a> {
         keep: Option<&[bool]>,
     ) -> Result<()> {
         let log_i = log_mean_intensity(frame);
-        let view = match view {
-            Some(v) if v.len() == shading.len() => Some(v),
-            _ => self.view(frame)?,
-        };
         let s = if let Some(view) = view {
             blend(shading, &view, &log_i, self.params.beta, keep)
         } else {

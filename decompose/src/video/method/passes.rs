@@ -14,7 +14,7 @@ use crate::video::propagate::{ClusterTables, PropagateParams, propagate, should_
 
 use super::complete::complete_frame;
 use super::first::FIRST_FRAME_SHARE;
-use super::fusion::single_view_shading;
+use super::fusion::{FusionParams, single_view_shading};
 use super::state::{FrameState, PixelSource, Scratch};
 use super::{FrameStats, VideoParams};
 
@@ -115,7 +115,10 @@ impl Run<'_> {
 
     /// Whether step 8 wants each frame's single-image shading (it is on and blends).
     fn wants_views(&self) -> bool {
-        self.params.fusion.as_ref().is_some_and(|f| f.beta > 0.0)
+        self.params
+            .fusion
+            .as_ref()
+            .is_some_and(FusionParams::blends)
     }
 
     /// Computes and caches frame `t`'s single-image shading (step 8) unless cached.
