@@ -182,21 +182,13 @@ fn fails_naming(make: impl Fn(&Path) -> PathBuf, extra: &[&str], needles: &[&str
     let input = make(dir.path());
     let before = names(dir.path());
     let out = dir.path().join("out");
-    let mut args = vec![
-        os("video"),
-        input.as_os_str(),
-        os("--out"),
-        out.as_os_str(),
-        os("--linear"),
-        os("-q"),
-    ];
     // `{dir}` in an extra argument stands for the fresh folder.
     let extra: Vec<String> = extra
         .iter()
         .map(|s| s.replace("{dir}", &dir.path().to_string_lossy()))
         .collect();
-    args.extend(extra.iter().map(|s| os(s)));
-    let o = decompose(&args);
+    let extra: Vec<&str> = extra.iter().map(String::as_str).collect();
+    let o = run_video(&input, &out, &extra);
     let err = String::from_utf8_lossy(&o.stderr);
     eprintln!("{err}");
     assert!(!o.status.success(), "should fail: {needles:?}");
