@@ -7,7 +7,8 @@
 //! `cargo run --release -p decompose --example lightfield_cv -- .cache/rendered-lightfields/tune`
 //! (`--json FILE` also writes every score; `--only TEXT` runs the settings whose name contains
 //! TEXT, e.g. `--only "prior zhao"`; `--mu` runs the grid of the data term's `μ` instead,
-//! `--crease` that of the crease cue's step).
+//! `--crease` that of the crease cue's step, `--data-term` that of the data term's `γ`, `μ`
+//! and `κ_c`).
 //!
 //! The grid spans the choices that decide coherence and accuracy: the centre-view Retinex prior
 //! (`LightFieldParams::retinex_prior`), the sheared filter (`LightFieldParams::shear`), the
@@ -18,7 +19,7 @@ use std::path::{Path, PathBuf};
 
 use decompose::lightfield::eval::{LightFieldScores, evaluate};
 use decompose::lightfield::io::load_truth;
-use decompose::lightfield::method::LevelPrior;
+use decompose::lightfield::method::{DataTermParams, LevelPrior};
 use decompose::lightfield::propagate::disparity_to_every_view;
 use decompose::lightfield::{LightFieldParams, decompose as decompose_lf};
 
@@ -86,6 +87,31 @@ fn crease_grid() -> Vec<(String, LightFieldParams)> {
         .collect()
 }
 
+/// `--data-term`: the data term's `γ`, `μ` and `κ_c` (`method::data_term`), every other
+/// choice at its default. `γ` = 0 is the thesis' data term (then `κ_c` has no effect).
+fn data_term_grid() -> Vec<(String, LightFieldParams)> {
+    let mut out = Vec::new();
+    for gamma in [0.0f32, 1.0, 2.0, 3.0] {
+        for mu in [1e-2, 3e-2, 1e-1] {
+            for centre_weight in [0.0f32, 0.03, 0.1] {
+                let mut p = LightFieldParams {
+                    data_term: DataTermParams {
+                        gamma,
+                        centre_weight,
+                    },
+                    ..Default::default()
+                };
+                p.solve.mu = mu;
+                out.push((
+                    format!("gamma {gamma} mu {mu:.0e} centre {centre_weight}"),
+                    p,
+                ));
+            }
+        }
+    }
+    out
+}
+
 fn scenes(root: &Path) -> Vec<PathBuf> {
     let mut found: Vec<PathBuf> = std::fs::read_dir(root)
         .expect("reading the tuning folder")
@@ -116,6 +142,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .unwrap_or_default();
     let grid = if args.iter().any(|a| a == "--mu") {
         mu_grid()
+    } else if args.iter().any(|a| a == "--data-term") {
+        data_term_grid()
     } else if args.iter().any(|a| a == "--crease") {
         crease_grid()
     } else {

@@ -112,6 +112,13 @@ fn lightfield_writes_every_view_under_its_input_name() {
             .contains("crease_step: Some(0.01)")
     );
     assert_eq!(forced_stats["run"]["crease_cue"], false);
+    // The thesis' data term by default: one weight μ = 1e-2 for every ray.
+    for needle in ["gamma: 0.0", "centre_weight: 0.0", "mu: 0.01"] {
+        assert!(
+            forced_stats["params"].as_str().unwrap().contains(needle),
+            "{needle}"
+        );
+    }
     // The options that are off by default reach the method and say so in stats.json.
     let options = dir.path().join("options");
     let o = decompose(&[
@@ -125,6 +132,7 @@ fn lightfield_writes_every_view_under_its_input_name() {
         os("--white-black-cue"),
         os("--no-unlit-fill"),
         os("--no-crease-cue"),
+        os("--dark-surfaces"),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stats: serde_json::Value =
@@ -136,6 +144,9 @@ fn lightfield_writes_every_view_under_its_input_name() {
         "white_black_cue: true",
         "unlit_as_missing: false",
         "crease_step: None",
+        "gamma: 2.0",
+        "centre_weight: 0.1",
+        "mu: 0.03",
     ] {
         assert!(params.contains(needle), "{needle} not in {params}");
     }

@@ -13,9 +13,10 @@
 //! Not in the thesis ([`LightFieldParams`] says why, with the figures): rays with no light are
 //! missing data (their pairs damped in step 3, their reflectance filled in by step 4's filter,
 //! `method::layers`); creases, where the disparity's slope turns, damped like occlusions
-//! ([`super::cues::crease_cue`]); and two options, a disparity-sheared filter in step 4
-//! ([`super::tvl1::tv_l1_sheared`]) and Zhao et al.'s centre-view Retinex as step 3's level
-//! prior (`method::prior`).
+//! ([`super::cues::crease_cue`]); and three options, a disparity-sheared filter in step 4
+//! ([`super::tvl1::tv_l1_sheared`]), Zhao et al.'s centre-view Retinex as step 3's level
+//! prior (`method::prior`), and a per-ray data term for large dark surfaces in step 3
+//! ([`data_term`], [`LightFieldParams::dark_surfaces`]).
 //!
 //! One reflectance scale for the whole light field: its 99.5th percentile channel value over all
 //! views is 1 (per-view normalisation would itself be an angular incoherence).
@@ -33,9 +34,10 @@ use crate::error::{Error, Result};
 use crate::progress::{Progress, ProgressFn};
 
 pub use baselines::{per_view, per_view_retinex};
+pub use data_term::DataTermParams;
 pub use params::{
-    FILTER_ITERATIONS, LevelPrior, LightFieldParams, REFLECTANCE_BETA, REFLECTANCE_ITERATIONS,
-    REFLECTANCE_RHO,
+    CENTRE_WEIGHT, DATA_GAMMA, DATA_MU, FILTER_ITERATIONS, LevelPrior, LightFieldParams,
+    REFLECTANCE_BETA, REFLECTANCE_ITERATIONS, REFLECTANCE_RHO,
 };
 
 /// The decomposition of every view: `reflectance` (3 channels) × `shading` (1 channel) = `L`.
@@ -182,6 +184,7 @@ pub fn decompose(
 ) -> Result<(LightFieldDecomposition, LightFieldInfo)> {
     check(lf, disparity)?;
     params.reflectance_filter.validate()?;
+    params.data_term.validate()?;
     if let Some(f) = &params.input_filter {
         f.validate()?;
     }
@@ -252,10 +255,16 @@ pub fn decompose(
         params,
     };
     // The data term's target of every ray, when not the thesis' log intensity.
-    let prior: Option<Vec<f32>> = match (disparity, params.level_prior) {
+    let mut prior: Option<Vec<f32>> = match (disparity, params.level_prior) {
         (Some(d), LevelPrior::CentreRetinex) => {
             Some(prior::centre_retinex_prior(&filtered, d, &log_i)?)
         }
+        _ => None,
+    };
+    // The data term's weight of every ray, when not the thesis' one weight (`data_term`).
+    let mut data_weight = data_term::ray_weights(&log_i, floor.ln(), params.data_term.gamma);
+    let tie_to_centre = match disparity {
+        Some(d) if params.data_term.centre_weight > 0.0 && lf.views() > 1 => Some(d),
         _ => None,
     };
     let mut log_s = vec![0.0f32; lf.views() * n];
@@ -264,7 +273,7 @@ pub fn decompose(
     let ring_list = rings(lf.rows(), lf.cols());
     let total_views = lf.views() as f32;
     let mut done = 0usize;
-    for ring in &ring_list {
+    for (ring_index, ring) in ring_list.iter().enumerate() {
         progress(Progress {
             stage: "Retinex solve of every view",
             fraction: 0.3 + 0.5 * done as f32 / total_views,
@@ -282,6 +291,7 @@ pub fn decompose(
                 let (s, solve) = solve_view_with_target(
                     view_i,
                     target,
+                    data_weight.as_ref().map(|d| &d[v * n..(v + 1) * n]),
                     &albedo,
                     &occlusion,
                     start,
@@ -306,6 +316,20 @@ pub fn decompose(
             marked.1 += o;
         }
         done += ring.len();
+        // After the centre view: tie the other views' dark rays to its solution.
+        if let (0, Some(d)) = (ring_index, tie_to_centre) {
+            let centre_s = &log_s[centre * n..(centre + 1) * n];
+            let (carried, seen) = prior::carry_from_centre(lf, d, centre_s, &log_i)?;
+            let weights = data_weight.get_or_insert_with(|| vec![1.0; log_i.len()]);
+            let targets = prior.get_or_insert_with(|| log_i.clone());
+            data_term::tie_to_centre(
+                weights,
+                targets,
+                &carried,
+                &seen,
+                params.data_term.centre_weight,
+            );
+        }
     }
     let pairs = (lf.views() * 2 * n) as f64;
     info.albedo_pair_fraction = marked.0 / pairs;
@@ -358,6 +382,7 @@ pub fn decompose(
 
 mod baselines;
 mod coherency;
+pub mod data_term;
 mod layers;
 mod params;
 mod prior;

@@ -40,6 +40,8 @@ pub(crate) enum LfMethod {
     RetinexPrior,
     /// Option: the 4D filter's angular differences along the disparity.
     Shear,
+    /// Option: the per-ray data term for large dark surfaces.
+    DarkSurfaces,
 }
 
 impl LfMethod {
@@ -55,6 +57,7 @@ impl LfMethod {
             LfMethod::NoUnlitFill => "ours, unlit rays as data",
             LfMethod::RetinexPrior => "ours, centre Retinex prior",
             LfMethod::Shear => "ours, sheared filter",
+            LfMethod::DarkSurfaces => "ours, dark-surface option",
         }
     }
 }
@@ -178,6 +181,7 @@ pub(crate) fn run_eval_lightfield(a: EvalLightFieldArgs) -> Result<()> {
                     unlit_as_missing: false,
                     ..Default::default()
                 }),
+                LfMethod::DarkSurfaces => ours(LightFieldParams::dark_surfaces()),
                 LfMethod::RetinexPrior => ours(LightFieldParams {
                     level_prior: decompose::lightfield::method::LevelPrior::CentreRetinex,
                     ..Default::default()

@@ -44,18 +44,19 @@ pub(super) fn centre_retinex_prior(
     let s_max = d.shading.data().iter().copied().fold(0.0f32, f32::max);
     let floor = (s_max * SHADING_FLOOR).max(f32::MIN_POSITIVE);
     let log_s: Vec<f32> = d.shading.data().iter().map(|v| v.max(floor).ln()).collect();
-    carry_from_centre(lf, disparity, &log_s, log_i)
+    Ok(carry_from_centre(lf, disparity, &log_s, log_i)?.0)
 }
 
 /// A centre-view log shading `centre_log_s` carried to every ray (views-major): the value at the
 /// corresponding centre pixel where the centre view sees the same surface, else the
-/// ray's log intensity plus the centre view's median of `ln S − i`.
-fn carry_from_centre(
+/// ray's log intensity plus the centre view's median of `ln S − i`. Also returns which rays
+/// the centre view sees.
+pub(super) fn carry_from_centre(
     lf: &LightField,
     disparity: &LightField,
     centre_log_s: &[f32],
     log_i: &[f32],
-) -> Result<Vec<f32>> {
+) -> Result<(Vec<f32>, Vec<bool>)> {
     let (w, h) = (lf.width() as usize, lf.height() as usize);
     let n = w * h;
     let centre = (lf.rows() / 2, lf.cols() / 2);
@@ -71,29 +72,34 @@ fn carry_from_centre(
     let log_s = Image::from_vec(w as u32, h as u32, 1, centre_log_s.to_vec())?;
     let centre_disp = disparity.view_data(ci);
     let mut out = vec![0.0f32; lf.views() * n];
-    out.par_chunks_mut(n).enumerate().for_each(|(v, target)| {
-        let from = (v / lf.cols(), v % lf.cols());
-        let disp = disparity.view_data(v);
-        let i = &log_i[v * n..(v + 1) * n];
-        let mut sample = [0.0f32];
-        for (p, t) in target.iter_mut().enumerate() {
-            let (x, y) = ((p % w) as f32, (p / w) as f32);
-            let (cx, cy) = corresponding(x, y, disp[p], from, centre);
-            let (rx, ry) = (cx.round(), cy.round());
-            let seen = rx >= 0.0
-                && ry >= 0.0
-                && (rx as usize) < w
-                && (ry as usize) < h
-                && (centre_disp[ry as usize * w + rx as usize] - disp[p]).abs() <= SAME_SURFACE;
-            *t = if seen {
-                sample_bilinear(&log_s, cx, cy, &mut sample);
-                sample[0]
-            } else {
-                i[p] + offset
-            };
-        }
-    });
-    Ok(out)
+    let mut seen_mask = vec![false; lf.views() * n];
+    out.par_chunks_mut(n)
+        .zip(seen_mask.par_chunks_mut(n))
+        .enumerate()
+        .for_each(|(v, (target, seen_out))| {
+            let from = (v / lf.cols(), v % lf.cols());
+            let disp = disparity.view_data(v);
+            let i = &log_i[v * n..(v + 1) * n];
+            let mut sample = [0.0f32];
+            for (p, t) in target.iter_mut().enumerate() {
+                let (x, y) = ((p % w) as f32, (p / w) as f32);
+                let (cx, cy) = corresponding(x, y, disp[p], from, centre);
+                let (rx, ry) = (cx.round(), cy.round());
+                let seen = rx >= 0.0
+                    && ry >= 0.0
+                    && (rx as usize) < w
+                    && (ry as usize) < h
+                    && (centre_disp[ry as usize * w + rx as usize] - disp[p]).abs() <= SAME_SURFACE;
+                seen_out[p] = seen;
+                *t = if seen {
+                    sample_bilinear(&log_s, cx, cy, &mut sample);
+                    sample[0]
+                } else {
+                    i[p] + offset
+                };
+            }
+        });
+    Ok((out, seen_mask))
 }
 
 #[cfg(test)]

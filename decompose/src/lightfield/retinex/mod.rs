@@ -5,7 +5,10 @@
 //! intensity `ln ‖L̂‖₂` of the 4D-filtered light field. For every 4-neighbour pair `p, q`:
 //!
 //! `E(s) = Σ_pq ω^occ_pq [ (1 − ω^a_pq)·((s_p − s_q) − (i_p − i_q))² + ω^a_pq·(s_p − s_q)² ]
-//!        + μ Σ_p (s_p − i_p)²`
+//!        + μ Σ_p w_p (s_p − t_p)²`
+//!
+//! with `t = i` and `w = 1` in the thesis; the light-field method may give every pixel its own
+//! weight `w_p` and target `t_p` (`lightfield::method::data_term`).
 //!
 //! Where the pair is no reflectance change the image gradient is shading's; where it is one, the
 //! shading stays smooth and the gradient goes to the reflectance; across an occlusion both terms
@@ -13,7 +16,7 @@
 //! shading's lowest frequencies to the intensity, with one scale for every view.
 //!
 //! The normal equations are a screened Poisson system whose matrix is the graph Laplacian of the
-//! weights `ω^occ` plus `μI` (the cue `ω^a` only enters the right-hand side). It is symmetric
+//! weights `ω^occ` plus `μ diag(w)` (the cue `ω^a` only enters the right-hand side). It is symmetric
 //! positive definite and solved matrix-free by preconditioned conjugate gradients, warm started
 //! (neighbouring views of a light field are nearly the same image, so a solved neighbour is an
 //! excellent start; see [`super::decompose`]).
@@ -81,9 +84,12 @@ impl Default for Preconditioner {
 /// Parameters of [`solve_view`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct ViewSolveParams {
-    /// `μ`: weight of the data term `(s − i)²`. Default 1e-2, chosen with `θ_a` by
-    /// leave-one-scene-out cross-validation on the rendered tuning scenes among 1e-3 / 1e-2 /
-    /// 3e-2: mean LMSE 0.0488 / 0.0460 / 0.0485 at θ_a = 0.005 (see `CueParams::theta_a`).
+    /// `μ`: weight of the data term `(s − i)²` (per pixel, times the `data_weight` given to
+    /// [`solve_view_with_target`], if any). Default 1e-2, the thesis' data term's, chosen with
+    /// `θ_a` by leave-one-scene-out cross-validation on the rendered tuning scenes among
+    /// 1e-3 / 1e-2 / 3e-2: mean LMSE 0.0488 / 0.0460 / 0.0485 at θ_a = 0.005 (see
+    /// `CueParams::theta_a`). The light-field method's per-ray data term uses 3e-2
+    /// (`lightfield::method::DATA_MU`).
     pub mu: f64,
     /// Relative residual `‖b − As‖ / ‖b‖` at which conjugate gradients stop. Default 1e-4:
     /// against 1e-5 it saves 0.4–0.6 s of the 9.7 s of `bench --lightfield 512`, and the mean
@@ -128,11 +134,16 @@ fn normal_equations(
     albedo: &PairWeights,
     occlusion: &PairWeights,
     mu: f64,
+    data_weight: Option<&[f32]>,
 ) -> (Vec<f64>, Level) {
     let (w, h) = (occlusion.width, occlusion.height);
     let n = w * h;
     let i = |p: usize| log_intensity[p] as f64;
-    let mut b: Vec<f64> = (0..n).map(|p| mu * target[p] as f64).collect();
+    let mu_at: Vec<f64> = match data_weight {
+        Some(dw) => dw.iter().map(|&v| mu * v as f64).collect(),
+        None => vec![mu; n],
+    };
+    let mut b: Vec<f64> = (0..n).map(|p| mu_at[p] * target[p] as f64).collect();
     let mut pair = |p: usize, q: usize, occ: f32, alb: f32| {
         let g = occ as f64 * (1.0 - alb as f64) * (i(p) - i(q));
         b[p] += g;
@@ -154,7 +165,7 @@ fn normal_equations(
         h,
         occlusion.horizontal.clone(),
         occlusion.vertical.clone(),
-        vec![mu; n],
+        mu_at,
     );
     (b, a)
 }
@@ -171,6 +182,7 @@ pub fn solve_view(
     solve_view_with_target(
         log_intensity,
         log_intensity,
+        None,
         albedo,
         occlusion,
         initial,
@@ -179,10 +191,11 @@ pub fn solve_view(
 }
 
 /// [`solve_view`] with the data term `μ (s − t)²` tied to `target` (a log shading per pixel)
-/// instead of the log intensity `i`.
+/// instead of the log intensity `i`, and `μ` scaled per pixel by `data_weight` when given.
 pub fn solve_view_with_target(
     log_intensity: &[f32],
     target: &[f32],
+    data_weight: Option<&[f32]>,
     albedo: &PairWeights,
     occlusion: &PairWeights,
     initial: &[f32],
@@ -200,7 +213,14 @@ pub fn solve_view_with_target(
         };
         return (Vec::new(), info);
     }
-    let (b, a) = normal_equations(log_intensity, target, albedo, occlusion, params.mu);
+    let (b, a) = normal_equations(
+        log_intensity,
+        target,
+        albedo,
+        occlusion,
+        params.mu,
+        data_weight,
+    );
     let mut x: Vec<f64> = initial.iter().map(|&v| v as f64).collect();
     let info = match &params.preconditioner {
         Preconditioner::Jacobi => {

@@ -20,6 +20,19 @@ fn pseudo_random(n: usize, seed: u64) -> Vec<f32> {
 /// The minimiser of the module docs' energy from the crate's sparse Cholesky solver, with the
 /// energy written as weighted least-squares equations (an independent assembly of the system).
 fn direct_solution(i: &[f32], albedo: &PairWeights, occlusion: &PairWeights, mu: f64) -> Vec<f64> {
+    let ones = vec![1.0; i.len()];
+    direct_solution_weighted(i, i, &ones, albedo, occlusion, mu)
+}
+
+/// [`direct_solution`] with the data term `μ Σ w_p (s_p − t_p)²`.
+fn direct_solution_weighted(
+    i: &[f32],
+    target: &[f32],
+    weight: &[f32],
+    albedo: &PairWeights,
+    occlusion: &PairWeights,
+    mu: f64,
+) -> Vec<f64> {
     let (w, h) = (occlusion.width, occlusion.height);
     let mut sys = LinearSystem::new(w * h);
     let mut pair = |p: usize, q: usize, o: f32, a: f32| {
@@ -38,8 +51,8 @@ fn direct_solution(i: &[f32], albedo: &PairWeights, occlusion: &PairWeights, mu:
             }
         }
     }
-    for (p, &ip) in i.iter().enumerate() {
-        sys.add(&[(p, 1.0)], ip as f64, mu);
+    for (p, (&tp, &wp)) in target.iter().zip(weight).enumerate() {
+        sys.add(&[(p, 1.0)], tp as f64, mu * wp as f64);
     }
     let params = SolverParams {
         damping: 0.0,
@@ -87,6 +100,46 @@ fn both_preconditioners_match_the_sparse_direct_least_squares_solution() {
             }
         }
     }
+}
+
+#[test]
+fn per_pixel_weights_and_targets_match_the_sparse_direct_solution() {
+    let (w, h) = (21, 13);
+    let (i, albedo, occlusion) = random_view(w, h, 77);
+    // Weights over four orders of magnitude, targets away from the intensity.
+    let weight: Vec<f32> = pseudo_random(w * h, 78)
+        .iter()
+        .map(|r| 10f32.powf(-4.0 * r))
+        .collect();
+    let target: Vec<f32> = i
+        .iter()
+        .zip(pseudo_random(w * h, 79))
+        .map(|(a, b)| a - b)
+        .collect();
+    let mu = 0.05;
+    let direct = direct_solution_weighted(&i, &target, &weight, &albedo, &occlusion, mu);
+    for preconditioner in [Preconditioner::Jacobi, deep_multigrid()] {
+        let params = ViewSolveParams {
+            mu,
+            tolerance: 1e-12,
+            preconditioner: preconditioner.clone(),
+            ..Default::default()
+        };
+        let (s, info) =
+            solve_view_with_target(&i, &target, Some(&weight), &albedo, &occlusion, &i, &params);
+        assert!(info.converged, "{preconditioner:?}: {info:?}");
+        for (a, b) in s.iter().zip(&direct) {
+            assert!((*a as f64 - b).abs() < 1e-5, "{a} vs {b}");
+        }
+    }
+    // And the weights matter: the uniform solution is elsewhere.
+    let uniform = direct_solution_weighted(&i, &target, &vec![1.0; w * h], &albedo, &occlusion, mu);
+    let apart = uniform
+        .iter()
+        .zip(&direct)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(apart > 1e-2, "{apart}");
 }
 
 #[test]

@@ -78,7 +78,8 @@ impl FusionParams {
         if !(self.gate.is_finite() && self.gate >= 0.0) {
             return Err(Error::param("gate", self.gate, "must be finite and >= 0"));
         }
-        self.view.reflectance_filter.validate()
+        self.view.reflectance_filter.validate()?;
+        self.view.data_term.validate()
     }
 }
 
