@@ -263,7 +263,7 @@ pub fn decompose(
     };
     // The data term's weight of every ray, when not the thesis' one weight (`data_term`).
     let mut data_weight = data_term::ray_weights(&log_i, floor.ln(), params.data_term.gamma);
-    let tie_to_centre = match disparity {
+    let tie_disparity = match disparity {
         Some(d) if params.data_term.centre_weight > 0.0 && lf.views() > 1 => Some(d),
         _ => None,
     };
@@ -317,7 +317,7 @@ pub fn decompose(
         }
         done += ring.len();
         // After the centre view: tie the other views' dark rays to its solution.
-        if let (0, Some(d)) = (ring_index, tie_to_centre) {
+        if let (0, Some(d)) = (ring_index, tie_disparity) {
             let centre_s = &log_s[centre * n..(centre + 1) * n];
             let (carried, seen) = prior::carry_from_centre(lf, d, centre_s, &log_i)?;
             let weights = data_weight.get_or_insert_with(|| vec![1.0; log_i.len()]);

@@ -81,24 +81,36 @@ fn deep_multigrid() -> Preconditioner {
     })
 }
 
+/// Solves with both preconditioners to a tight tolerance and compares with `direct`.
+fn assert_both_preconditioners_match(
+    i: &[f32],
+    data: (&[f32], Option<&[f32]>),
+    cues: (&PairWeights, &PairWeights),
+    mu: f64,
+    direct: &[f64],
+) {
+    let (w, h) = (cues.1.width, cues.1.height);
+    for preconditioner in [Preconditioner::Jacobi, deep_multigrid()] {
+        let params = ViewSolveParams {
+            mu,
+            tolerance: 1e-12,
+            preconditioner: preconditioner.clone(),
+            ..Default::default()
+        };
+        let (s, info) = solve_view_with_target(i, data.0, data.1, cues.0, cues.1, i, &params);
+        assert!(info.converged, "{w}×{h} {preconditioner:?}: {info:?}");
+        for (a, b) in s.iter().zip(direct) {
+            assert!((*a as f64 - b).abs() < 1e-5, "{w}×{h}: {a} vs {b}");
+        }
+    }
+}
+
 #[test]
 fn both_preconditioners_match_the_sparse_direct_least_squares_solution() {
     for (w, h, mu) in [(7, 5, 0.05), (13, 11, 1e-3), (6, 17, 1e-3), (33, 9, 1e-3)] {
         let (i, albedo, occlusion) = random_view(w, h, w as u64 * 31 + h as u64);
         let direct = direct_solution(&i, &albedo, &occlusion, mu);
-        for preconditioner in [Preconditioner::Jacobi, deep_multigrid()] {
-            let params = ViewSolveParams {
-                mu,
-                tolerance: 1e-12,
-                preconditioner: preconditioner.clone(),
-                ..Default::default()
-            };
-            let (s, info) = solve_view(&i, &albedo, &occlusion, &i, &params);
-            assert!(info.converged, "{w}×{h} {preconditioner:?}: {info:?}");
-            for (a, b) in s.iter().zip(&direct) {
-                assert!((*a as f64 - b).abs() < 1e-5, "{w}×{h}: {a} vs {b}");
-            }
-        }
+        assert_both_preconditioners_match(&i, (&i, None), (&albedo, &occlusion), mu, &direct);
     }
 }
 
@@ -118,20 +130,13 @@ fn per_pixel_weights_and_targets_match_the_sparse_direct_solution() {
         .collect();
     let mu = 0.05;
     let direct = direct_solution_weighted(&i, &target, &weight, &albedo, &occlusion, mu);
-    for preconditioner in [Preconditioner::Jacobi, deep_multigrid()] {
-        let params = ViewSolveParams {
-            mu,
-            tolerance: 1e-12,
-            preconditioner: preconditioner.clone(),
-            ..Default::default()
-        };
-        let (s, info) =
-            solve_view_with_target(&i, &target, Some(&weight), &albedo, &occlusion, &i, &params);
-        assert!(info.converged, "{preconditioner:?}: {info:?}");
-        for (a, b) in s.iter().zip(&direct) {
-            assert!((*a as f64 - b).abs() < 1e-5, "{a} vs {b}");
-        }
-    }
+    assert_both_preconditioners_match(
+        &i,
+        (&target, Some(&weight)),
+        (&albedo, &occlusion),
+        mu,
+        &direct,
+    );
     // And the weights matter: the uniform solution is elsewhere.
     let uniform = direct_solution_weighted(&i, &target, &vec![1.0; w * h], &albedo, &occlusion, mu);
     let apart = uniform
