@@ -83,8 +83,9 @@ pub const REFLECTANCE_ITERATIONS: usize = 30;
 /// LMSE + incoherence (`examples/lightfield_cv.rs --data-term`): cross-validated mean LMSE
 /// 0.0328, incoherence 0.0036, against 0.0370 / 0.0028 with the thesis' data term. It was to
 /// be the default, but on the 16 test scenes (seeds 17–32) it scored 0.0268 / 0.0020 against
-/// the thesis data term's 0.0263 / 0.0011: the tuning scenes hold more large dark surfaces
-/// (4 of 16) than the test scenes (1 of 16; docs/intrinsic-lightfields.md).
+/// the thesis data term's 0.0263 / 0.0011. The tuning scenes hold more of the scenes it fixes,
+/// large dark surfaces (tune 06, 09, 13), than the test scenes (scene19 only), presumably why
+/// (docs/intrinsic-lightfields.md).
 pub const DATA_GAMMA: f32 = 2.0;
 
 /// `μ` of the option [`LightFieldParams::dark_surfaces`]: 3e-2 (see [`DATA_GAMMA`]). A bright
