@@ -112,8 +112,8 @@ fn lightfield_writes_every_view_under_its_input_name() {
             .contains("crease_step: Some(0.01)")
     );
     assert_eq!(forced_stats["run"]["crease_cue"], false);
-    // The thesis' data term by default: one weight μ = 1e-2 for every ray.
-    for needle in ["gamma: 0.0", "centre_weight: 0.0", "mu: 0.01"] {
+    // The per-ray data term by default: γ = 1, κ_c = 0.1, μ = 1e-2.
+    for needle in ["gamma: 1.0", "centre_weight: 0.1", "mu: 0.01"] {
         assert!(
             forced_stats["params"].as_str().unwrap().contains(needle),
             "{needle}"
@@ -152,6 +152,38 @@ fn lightfield_writes_every_view_under_its_input_name() {
     }
     assert_eq!(stats["run"]["unlit_ray_fraction"], 0.0);
     assert!(options.join("reflectance/input_Cam012.png").is_file());
+    // The thesis' data term as an ablation; it and the dark-surface option exclude each other.
+    let thesis = dir.path().join("thesis");
+    let input = tiny();
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            os("lightfield"),
+            input.as_os_str(),
+            os("--out"),
+            thesis.as_os_str(),
+            os("-q"),
+            os("--force"),
+        ];
+        args.extend(extra.iter().map(|a| os(a)));
+        decompose(&args)
+    };
+    let o = run(&["--thesis-data-term"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(thesis.join("stats.json")).unwrap()).unwrap();
+    for needle in ["gamma: 0.0", "centre_weight: 0.0", "mu: 0.01"] {
+        assert!(
+            stats["params"].as_str().unwrap().contains(needle),
+            "{needle}"
+        );
+    }
+    let o = run(&["--thesis-data-term", "--dark-surfaces"]);
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("cannot be used with"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     // Without a disparity file: nothing is estimated and the occlusion cue is off; with an
     // option that needs one, it is estimated, and the occlusion cue stays off.
     let bare = dir.path().join("bare");

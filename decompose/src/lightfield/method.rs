@@ -13,10 +13,11 @@
 //! Not in the thesis ([`LightFieldParams`] says why, with the figures): rays with no light are
 //! missing data (their pairs damped in step 3, their reflectance filled in by step 4's filter,
 //! `method::layers`); creases, where the disparity's slope turns, damped like occlusions
-//! ([`super::cues::crease_cue`]); and three options, a disparity-sheared filter in step 4
-//! ([`super::tvl1::tv_l1_sheared`]), Zhao et al.'s centre-view Retinex as step 3's level
-//! prior (`method::prior`), and a per-ray data term for large dark surfaces in step 3
-//! ([`data_term`], [`LightFieldParams::dark_surfaces`]).
+//! ([`super::cues::crease_cue`]); step 3's data term weighted per ray by its brightness, with
+//! the dark rays tied to the centre view's solution ([`data_term`], γ = 1 by default); and
+//! three options, a disparity-sheared filter in step 4 ([`super::tvl1::tv_l1_sheared`]), Zhao
+//! et al.'s centre-view Retinex as step 3's level prior (`method::prior`), and a stronger
+//! per-ray data term for large dark surfaces ([`LightFieldParams::dark_surfaces`]).
 //!
 //! One reflectance scale for the whole light field: its 99.5th percentile channel value over all
 //! views is 1 (per-view normalisation would itself be an angular incoherence).
@@ -36,8 +37,8 @@ use crate::progress::{Progress, ProgressFn};
 pub use baselines::{per_view, per_view_retinex};
 pub use data_term::DataTermParams;
 pub use params::{
-    CENTRE_WEIGHT, DATA_GAMMA, DATA_MU, FILTER_ITERATIONS, LevelPrior, LightFieldParams,
-    REFLECTANCE_BETA, REFLECTANCE_ITERATIONS, REFLECTANCE_RHO,
+    CENTRE_WEIGHT, DATA_GAMMA, DATA_MU, DEFAULT_DATA_GAMMA, FILTER_ITERATIONS, LevelPrior,
+    LightFieldParams, REFLECTANCE_BETA, REFLECTANCE_ITERATIONS, REFLECTANCE_RHO,
 };
 
 /// The decomposition of every view: `reflectance` (3 channels) × `shading` (1 channel) = `L`.

@@ -99,8 +99,12 @@ pub(crate) struct LightFieldInputArgs {
     /// For scenes with large dark surfaces (a black wall, a dark floor): dark rays tie each
     /// view's shading to the intensity less than bright ones, and to the centre view's solution
     /// (the per-ray data term; see the docs for when it helps).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "thesis_data_term")]
     pub(crate) dark_surfaces: bool,
+    /// Ablation: the thesis' data term, one weight for every ray (by default dark rays weigh
+    /// less and are tied to the centre view's solution).
+    #[arg(long)]
+    pub(crate) thesis_data_term: bool,
 }
 
 /// The disparity source named when the disparity was estimated from the EPIs.
@@ -134,6 +138,8 @@ impl LightFieldInputArgs {
     pub(crate) fn params(&self, estimated: bool) -> LightFieldParams {
         let mut p = if self.dark_surfaces {
             LightFieldParams::dark_surfaces()
+        } else if self.thesis_data_term {
+            LightFieldParams::thesis_data_term()
         } else {
             LightFieldParams::default()
         };

@@ -36,6 +36,8 @@ pub(crate) enum LfMethod {
     WhiteBlackCue,
     /// Ablation: black (unlit) rays as data, as in the thesis.
     NoUnlitFill,
+    /// Ablation: the thesis' data term (one weight for every ray).
+    ThesisDataTerm,
     /// Option: the centre view's Retinex as the per-view solves' level prior.
     RetinexPrior,
     /// Option: the 4D filter's angular differences along the disparity.
@@ -55,6 +57,7 @@ impl LfMethod {
             LfMethod::NoCreaseCue => "ours, no crease cue",
             LfMethod::WhiteBlackCue => "ours, with white/black cue",
             LfMethod::NoUnlitFill => "ours, unlit rays as data",
+            LfMethod::ThesisDataTerm => "ours, thesis data term",
             LfMethod::RetinexPrior => "ours, centre Retinex prior",
             LfMethod::Shear => "ours, sheared filter",
             LfMethod::DarkSurfaces => "ours, dark-surface option",
@@ -68,7 +71,7 @@ pub(crate) struct EvalLightFieldArgs {
     /// of such scenes.
     #[arg(long)]
     pub(crate) truth: PathBuf,
-    /// Methods to run (default: ours, the per-view baselines and the ablations; the two options
+    /// Methods to run (default: ours, the per-view baselines and the ablations; the options
     /// only when named).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub(crate) methods: Vec<LfMethod>,
@@ -119,6 +122,7 @@ pub(crate) fn run_eval_lightfield(a: EvalLightFieldArgs) -> Result<()> {
             LfMethod::NoCreaseCue,
             LfMethod::WhiteBlackCue,
             LfMethod::NoUnlitFill,
+            LfMethod::ThesisDataTerm,
         ];
     }
     methods.sort();
@@ -181,6 +185,7 @@ pub(crate) fn run_eval_lightfield(a: EvalLightFieldArgs) -> Result<()> {
                     unlit_as_missing: false,
                     ..Default::default()
                 }),
+                LfMethod::ThesisDataTerm => ours(LightFieldParams::thesis_data_term()),
                 LfMethod::DarkSurfaces => ours(LightFieldParams::dark_surfaces()),
                 LfMethod::RetinexPrior => ours(LightFieldParams {
                     level_prior: decompose::lightfield::method::LevelPrior::CentreRetinex,
