@@ -184,8 +184,9 @@ fn lightfield_writes_every_view_under_its_input_name() {
         "{}",
         String::from_utf8_lossy(&o.stderr)
     );
-    // Without a disparity file: nothing is estimated and the occlusion cue is off; with an
-    // option that needs one, it is estimated, and the occlusion cue stays off.
+    // Without a disparity file: nothing is estimated, the occlusion cue is off and the data
+    // term is the thesis' one; with an option that needs one, it is estimated, and the same
+    // holds.
     let bare = dir.path().join("bare");
     copy_dir(&tiny(), &bare);
     std::fs::remove_file(bare.join("gt_disp_lowres.pfm")).unwrap();
@@ -216,6 +217,10 @@ fn lightfield_writes_every_view_under_its_input_name() {
             serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
         assert_eq!(stats["disparity"], source);
         assert_eq!(stats["run"]["occlusion_cue"], false);
+        let params = stats["params"].as_str().unwrap();
+        for needle in ["occlusion_cue: false", "gamma: 0.0", "centre_weight: 0.0"] {
+            assert!(params.contains(needle), "{needle} not in {params}");
+        }
         assert_eq!(out.join("disparity.pfm").is_file(), estimated);
     }
 }

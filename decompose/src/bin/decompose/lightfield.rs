@@ -110,6 +110,15 @@ pub(crate) struct LightFieldInputArgs {
 /// The disparity source named when the disparity was estimated from the EPIs.
 pub(crate) const ESTIMATED: &str = "estimated from the epipolar-plane images";
 
+/// The disparity source named when there is none.
+const NONE: &str = "none (without a disparity file the occlusion cue is off)";
+
+/// Whether a disparity source (as [`LightFieldInputArgs::load`] names it) is a file: given
+/// with `--disparity` or the folder's own.
+fn is_precise(source: &str) -> bool {
+    source != ESTIMATED && source != NONE
+}
+
 #[derive(Args)]
 pub(crate) struct LightFieldArgs {
     #[command(flatten)]
@@ -132,9 +141,10 @@ pub(crate) struct LightFieldArgs {
 }
 
 impl LightFieldInputArgs {
-    /// The method's parameters. With an `estimated` disparity the occlusion cue is off: on the
-    /// 8 rendered tuning scenes it costs accuracy with the EPI estimate (mean LMSE 0.0547
-    /// against 0.0519 without; docs/intrinsic-lightfields.md).
+    /// The method's parameters. Without a disparity file (`estimated`: none, or one estimated
+    /// from the EPIs) they are [`LightFieldParams::without_precise_disparity`]: no occlusion cue
+    /// (on the 8 rendered tuning scenes it costs accuracy with the EPI estimate, mean LMSE
+    /// 0.0547 against 0.0519 without) and the thesis' data term (docs/intrinsic-lightfields.md).
     pub(crate) fn params(&self, estimated: bool) -> LightFieldParams {
         let mut p = if self.dark_surfaces {
             LightFieldParams::dark_surfaces()
@@ -150,7 +160,10 @@ impl LightFieldInputArgs {
             ..Default::default()
         });
         p.filter_4d = !self.no_4d_filter;
-        p.occlusion_cue = !self.no_occlusion_cue && !estimated;
+        if estimated {
+            p = p.without_precise_disparity();
+        }
+        p.occlusion_cue &= !self.no_occlusion_cue;
         if self.no_crease_cue {
             p.cues.crease_step = None;
         }
@@ -204,10 +217,7 @@ impl LightFieldInputArgs {
             }
             None => match &folder.disparity {
                 Some(d) => (Some(d.clone()), "the folder's gt_disp_lowres.pfm"),
-                None if !caller_needs_it && !self.needs_disparity() => (
-                    None,
-                    "none (without a disparity file the occlusion cue is off)",
-                ),
+                None if !caller_needs_it && !self.needs_disparity() => (None, NONE),
                 None => {
                     let (d, _) = epi_disparity(&folder.field, &EpiParams::default())
                         .context("estimating disparity from the epipolar-plane images")?;
@@ -235,7 +245,7 @@ impl LightFieldInputArgs {
             pb.set_position((p.fraction * 100.0) as u64);
             pb.set_message(p.stage);
         };
-        let params = self.params(disparity_source == ESTIMATED);
+        let params = self.params(!is_precise(disparity_source));
         let out = decompose_lf(lf, every.as_ref(), &params, &mut report)?;
         pb.finish_and_clear();
         Ok(out)
@@ -391,7 +401,7 @@ pub(crate) fn run_lightfield(a: LightFieldArgs) -> Result<()> {
         "grid": [lf.rows(), lf.cols()],
         "view_size": [lf.width(), lf.height()],
         "disparity": disparity_source,
-        "params": format!("{:?}", a.input.params(disparity_source == ESTIMATED)),
+        "params": format!("{:?}", a.input.params(!is_precise(disparity_source))),
         "wall_ms": wall * 1e3,
         "shading_scale": shading_scale,
         "output_encoding": if a.linear_output { "linear" } else { "srgb" },

@@ -156,10 +156,12 @@ pub(crate) fn run_eval_lightfield(a: EvalLightFieldArgs) -> Result<()> {
         let mut rows = BTreeMap::new();
         for &m in &methods {
             let t = Instant::now();
-            // As `decompose lightfield`: no occlusion cue with an estimated disparity.
+            // As `decompose lightfield` with an estimated disparity.
             let estimating = a.estimate_disparity;
             let ours = |mut p: LightFieldParams| {
-                p.occlusion_cue &= !estimating;
+                if estimating {
+                    p = p.without_precise_disparity();
+                }
                 decompose_lf(lf, disparity.as_ref(), &p, &mut |_| {}).map(|(d, _)| d)
             };
             let d = match m {

@@ -344,3 +344,20 @@ fn the_tie_to_the_centre_view_makes_the_views_agree() {
     bad.data_term.gamma = -1.0;
     assert!(decompose(&lf, Some(&truth.disparity), &bad, &mut |_| {}).is_err());
 }
+
+/// Without a precise disparity the default data term becomes the thesis' one and the
+/// occlusion cue goes; a data term set otherwise keeps its γ but loses the tie.
+#[test]
+fn without_a_precise_disparity_the_data_term_is_the_thesis_one() {
+    let p = LightFieldParams::default().without_precise_disparity();
+    assert!(!p.occlusion_cue);
+    assert_eq!(p.data_term, DataTermParams::THESIS);
+    let dark = LightFieldParams::dark_surfaces().without_precise_disparity();
+    assert!(!dark.occlusion_cue);
+    assert_eq!(
+        dark.data_term.gamma,
+        LightFieldParams::dark_surfaces().data_term.gamma
+    );
+    assert_eq!(dark.data_term.centre_weight, 0.0);
+    assert!(LightFieldParams::default().data_term.gamma > 0.0);
+}
