@@ -106,8 +106,9 @@ pub const DATA_GAMMA: f32 = 2.0;
 pub const DATA_MU: f64 = 3e-2;
 
 /// κ_c of the default data term and of the option [`LightFieldParams::dark_surfaces`]: 0.1
-/// (see [`DATA_GAMMA`]; 13 of the 16 folds chose it for the option). At γ = 2, μ = 3e-2 it takes the in-sample incoherence from 0.0053 to 0.0037
-/// at the same or better LMSE (0.0299 → 0.0292).
+/// (see [`DATA_GAMMA`]; 13 of the 16 folds chose it for the option). At γ = 2, μ = 3e-2 it
+/// takes the in-sample incoherence from 0.0053 to 0.0037 at the same or better LMSE
+/// (0.0299 → 0.0292).
 pub const CENTRE_WEIGHT: f32 = 0.1;
 
 /// Iterations of the optional input filter (step 1): 100 at ρ = 10.
