@@ -150,6 +150,52 @@ fn no_blend_gives_the_propagated_decomposition() {
 }
 
 #[test]
+fn the_reflectance_radius_is_recorded_and_changes_the_reflectance() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = tiny().join("input");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let o = run_video(&input, &out, &[&["--linear-output"], extra].concat());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stats: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap())
+                .unwrap();
+        (out, stats["reflectance_radius"].as_f64().unwrap())
+    };
+    let (pooled, default_radius) = run("pooled", &[]);
+    let (exact, zero) = run("exact", &["--reflectance-radius", "0"]);
+    assert_eq!(default_radius, 90.0);
+    assert_eq!(zero, 0.0);
+    // Frame 5 is propagated (frame 0 is the first frame's own decomposition): the colour ball
+    // changes its reflectance on many pixels.
+    let linear = LoadOptions {
+        linear: true,
+        ..Default::default()
+    };
+    let refl = |out: &Path| load_rgb(out.join("reflectance").join("000005.tiff"), linear).unwrap();
+    let (a, b) = (refl(&pooled), refl(&exact));
+    let differ = (0..a.len())
+        .filter(|&p| (a.px(p)[1] / b.px(p)[1] - 1.0).abs() > 1e-3)
+        .count();
+    assert!(
+        differ > a.len() / 10,
+        "{differ} of {} pixels differ",
+        a.len()
+    );
+    // Out of range or not a number: a clear error before any work.
+    for bad in ["-1", "nan", "500", "wide"] {
+        let out = dir.path().join(format!("bad{bad}"));
+        let arg = format!("--reflectance-radius={bad}");
+        let o = run_video(&input, &out, &[arg.as_str()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{bad}");
+        assert!(err.contains("--reflectance-radius"), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(!out.exists());
+    }
+}
+
+#[test]
 fn existing_output_is_kept_unless_forced() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");

@@ -14,6 +14,7 @@ use decompose::io::{self, Depth, Encoding, LoadOptions};
 use decompose::video::frames::{FrameOptions, FrameSource};
 use decompose::video::labels_io::save_labels;
 use decompose::video::method::{FrameSink, VideoFrame, VideoParams, decompose_video};
+use decompose::video::propagate::PropagateParams;
 
 use crate::common::{TempDir, bar, output_format};
 use crate::image_cmd::{OutputArgs, StrokeArgs};
@@ -51,6 +52,12 @@ pub(crate) struct VideoArgs {
     /// single-image decomposition and no averaging along the flow (step 8).
     #[arg(long)]
     no_blend: bool,
+    /// Radius, in 8-bit colour units, of the colour ball over which a propagated pixel's
+    /// reflectance is averaged among its cluster's colours; 0 takes the pixel's exact colour,
+    /// as the thesis does. The default was chosen on rendered sequences (decompose/README.md).
+    #[arg(long, default_value_t = VideoParams::default().propagate.reflectance_radius,
+          value_parser = parse_radius)]
+    reflectance_radius: f64,
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
@@ -244,9 +251,14 @@ pub(crate) fn run_video(a: VideoArgs) -> Result<()> {
         pb.set_position((p.fraction * 100.0) as u64);
         pb.set_message(p.stage);
     };
+    let defaults = VideoParams::default();
     let params = VideoParams {
         fusion: (!a.no_blend).then(Default::default),
-        ..Default::default()
+        propagate: PropagateParams {
+            reflectance_radius: a.reflectance_radius,
+            ..defaults.propagate.clone()
+        },
+        ..defaults
     };
     let stats = decompose_video(
         &source,
@@ -267,6 +279,7 @@ pub(crate) fn run_video(a: VideoArgs) -> Result<()> {
     json["height"] = h.into();
     json["shading_scale"] = sink.shading_scale.map_or(1.0, |s| 1.0 / s).into();
     json["per_frame_blend"] = params.fusion.is_some().into();
+    json["reflectance_radius"] = params.propagate.reflectance_radius.into();
     json["output_encoding"] = if a.output.linear_output {
         "linear"
     } else {
@@ -299,4 +312,17 @@ pub(crate) fn run_video(a: VideoArgs) -> Result<()> {
         .with_context(|| format!("moving the output to {}", a.out.display()))?;
     partial.keep();
     Ok(())
+}
+
+/// A colour-ball radius: a finite number from 0 to 442 (the diagonal of the 8-bit cube).
+fn parse_radius(text: &str) -> std::result::Result<f64, String> {
+    let r: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{text}' is not a number"))?;
+    if r.is_finite() && (0.0..=442.0).contains(&r) {
+        Ok(r)
+    } else {
+        Err(format!("{r} is out of range (0 to 442)"))
+    }
 }

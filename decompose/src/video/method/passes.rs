@@ -10,7 +10,9 @@ use crate::image::Mask;
 use crate::progress::{Progress, ProgressFn};
 use crate::video::flow::{Flow, flow};
 use crate::video::frames::FrameSource;
-use crate::video::propagate::{ClusterTables, PropagateParams, propagate, should_stop};
+use crate::video::propagate::{
+    ClusterTables, PropagateParams, ReflectanceMemo, propagate_with, should_stop,
+};
 
 use super::complete::complete_frame;
 use super::first::FIRST_FRAME_SHARE;
@@ -25,6 +27,8 @@ pub(crate) struct Run<'a> {
     pub params: &'a VideoParams,
     pub scratch: Scratch,
     pub tables: ClusterTables,
+    /// The colour-ball reflectances of the current tables (`PropagateParams::reflectance_radius`).
+    pub memo: ReflectanceMemo,
     pub stats: Vec<FrameStats>,
     pub stopping: Vec<usize>,
 }
@@ -91,7 +95,7 @@ impl Run<'_> {
         let f = self.flow(from.index, to, from.img, img)?;
         let t0 = Instant::now();
         let labels = from.state.labels(self.tables.cluster_count());
-        let prop = propagate(&self.tables, &labels, img, &f, pp)?;
+        let prop = propagate_with(&self.tables, &labels, img, &f, pp, &mut self.memo)?;
         let floor = (img.max() * crate::decomposition::SHADING_FLOOR).max(f32::MIN_POSITIVE);
         let mut added = 0;
         for i in 0..state.len() {

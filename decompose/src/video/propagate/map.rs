@@ -8,6 +8,7 @@ use crate::error::{Error, Result};
 use crate::image::{Image, Mask};
 use crate::video::flow::Flow;
 
+use super::ball::ReflectanceMemo;
 use super::tables::{Candidate, ClusterTables, colour8};
 use super::{PropagateParams, check_labels};
 
@@ -59,6 +60,27 @@ pub fn propagate(
     flow: &Flow,
     params: &PropagateParams,
 ) -> Result<Propagation> {
+    propagate_with(
+        tables,
+        prev,
+        next,
+        flow,
+        params,
+        &mut ReflectanceMemo::new(),
+    )
+}
+
+/// [`propagate`] keeping the colour-ball reflectances of [`PropagateParams::reflectance_radius`]
+/// in `memo` for the next call with the same tables (the result is the same with or without
+/// the memo, only faster when frames share colours).
+pub fn propagate_with(
+    tables: &ClusterTables,
+    prev: &Labels,
+    next: &Image,
+    flow: &Flow,
+    params: &PropagateParams,
+    memo: &mut ReflectanceMemo,
+) -> Result<Propagation> {
     params.validate()?;
     check_labels(prev)?;
     let dims = (prev.width, prev.height);
@@ -86,6 +108,8 @@ pub fn propagate(
     }
     let (w, h) = (dims.0 as usize, dims.1 as usize);
     let n = w * h;
+
+    let pooled = params.reflectance_radius > 0.0;
 
     // Likelihoods (eq. 3.6) once per distinct 8-bit colour of frame t+1.
     let packed: Vec<u32> = (0..n)
@@ -117,7 +141,13 @@ pub fn propagate(
                     .map(|(k, count)| Candidate {
                         cluster: k,
                         likelihood: count as f64 / tables.pixels(k) as f64,
-                        reflectance: tables.colour_reflectance(k, [r, g, b]),
+                        // With a colour ball every assigned pixel's reflectance is read
+                        // below, once per (colour, cluster); the exact bin is not needed.
+                        reflectance: if pooled {
+                            None
+                        } else {
+                            tables.colour_reflectance(k, [r, g, b])
+                        },
                     })
                     .collect::<Vec<_>>()
             })
@@ -225,8 +255,10 @@ pub fn propagate(
         })
         .collect();
 
-    // Assigned pixels whose colour has no bin of its own in 𝓘_k take the mean reflectance of
-    // k's bins inside the Parzen ball, computed once per (colour, cluster).
+    // Assigned pixels whose colour has no bin of its own in 𝓘_k (every assigned pixel, with a
+    // colour ball) take the mean reflectance of k's bins inside the ball, computed once per
+    // (colour, cluster). The Parzen ball of radius d always holds one of k's bins (the
+    // likelihood is positive); a smaller colour ball may not, and then falls back to it.
     let mut missing: Vec<(u32, u32)> = decided
         .iter()
         .enumerate()
@@ -235,15 +267,23 @@ pub fn propagate(
         .collect();
     missing.sort_unstable();
     missing.dedup();
-    let fallback: Vec<[f32; 3]> = missing
-        .par_iter()
-        .map(|&(c, k)| {
-            let [_, r, g, b] = distinct[c as usize].to_be_bytes();
-            tables
-                .ball_mean([r, g, b], params.d, k)
-                .expect("an assigned cluster has a bin in the ball")
-        })
-        .collect();
+    let fallback: Vec<[f32; 3]> = if pooled {
+        let pairs: Vec<(u32, u32)> = missing
+            .iter()
+            .map(|&(c, k)| (distinct[c as usize], k))
+            .collect();
+        memo.means(tables, params.reflectance_radius, params.d, &pairs)
+    } else {
+        missing
+            .par_iter()
+            .map(|&(c, k)| {
+                let [_, r, g, b] = distinct[c as usize].to_be_bytes();
+                tables
+                    .ball_mean([r, g, b], params.d, k)
+                    .expect("an assigned cluster has a bin in the ball")
+            })
+            .collect()
+    };
 
     let mut labels = Vec::with_capacity(n);
     let mut refl = Vec::with_capacity(3 * n);

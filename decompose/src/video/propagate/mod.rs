@@ -72,6 +72,14 @@
 //! positive) and keeps the shading-dependent variation of the reflectance within a cluster;
 //! the cluster mean is [`ClusterTables::mean_reflectance`].
 //!
+//! With [`PropagateParams::reflectance_radius`] `r > 0` (not in the thesis; the video method's
+//! default), every assigned pixel takes the count-weighted mean reflectance of `k`'s bins
+//! within distance `r` of its colour instead. Under a moving light one albedo's colour changes
+//! from frame to frame, and the exact bin carries the first frame's decomposition error pixel
+//! by pixel; a wide ball pools it, and the cluster (which the MAP assignment chose) keeps
+//! different albedos apart. The ball's bins are read through a grid of 16³-colour cells per
+//! cluster (module `ball`), so a query reads the cells that meet the ball, not its volume.
+//!
 //! # Stopping condition (§3.5.3), [`should_stop`]
 //!
 //! The issue says "more than α = 80% unassigned in any M×M window; M = 30, 20, 10 over the
@@ -105,6 +113,7 @@
 //! [`should_stop`] 1–2 ms per pass. The scan of the ball per distinct colour, before the
 //! sliding, took 0.46 s on one thread; with 8×8×8 grid cells, 0.74 s.
 
+mod ball;
 mod map;
 mod parzen;
 mod stop;
@@ -112,7 +121,8 @@ mod tables;
 #[cfg(test)]
 mod tests;
 
-pub use map::{Propagation, propagate};
+pub use ball::ReflectanceMemo;
+pub use map::{Propagation, propagate, propagate_with};
 pub use stop::should_stop;
 pub use tables::{ClusterTables, colour8};
 
@@ -143,6 +153,11 @@ pub struct PropagateParams {
     /// `M`: side of the stopping window (§3.5.3): 30, 20 and 10 over the three passes of
     /// Algorithm 1. Default 30 (the first pass).
     pub m: u32,
+    /// Radius, in 8-bit sRGB-encoded colour units, of the colour ball over which an assigned
+    /// pixel's reflectance is averaged among its cluster's bins of `𝓘_k` (count-weighted).
+    /// 0 takes the bin of the pixel's exact colour, as the thesis does (the Parzen ball of
+    /// radius `d` when the cluster has no such bin). Not in the thesis; default 0.
+    pub reflectance_radius: f64,
 }
 
 impl Default for PropagateParams {
@@ -154,6 +169,7 @@ impl Default for PropagateParams {
             beta: 2.0,
             alpha: 0.8,
             m: 30,
+            reflectance_radius: 0.0,
         }
     }
 }
@@ -175,6 +191,13 @@ impl PropagateParams {
         }
         if !(self.beta.is_finite() && self.beta >= 1.0) {
             return Err(Error::param("beta", self.beta, "must be finite and >= 1"));
+        }
+        if !(self.reflectance_radius.is_finite() && self.reflectance_radius >= 0.0) {
+            return Err(Error::param(
+                "reflectance_radius",
+                self.reflectance_radius,
+                "must be finite and >= 0",
+            ));
         }
         check_alpha_m(self.alpha, self.m)
     }

@@ -1,5 +1,7 @@
 //! The per-cluster tables `𝓡_k` and `𝓘_k` of §3.4 (see the module docs of `propagate`).
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use rayon::slice::ParallelSliceMut;
 
 use crate::color::srgb_to_linear;
@@ -89,7 +91,7 @@ pub(super) struct Candidate {
 /// contiguous runs of blue values. Memory: one entry (40 bytes) per distinct (8-bit colour,
 /// cluster) pair seen so far, one (11 bytes) per distinct quantised reflectance per cluster and
 /// a 256 KiB index; it grows with the scene's colours, not with the number of frames.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct ClusterTables {
     pub(super) clusters: Vec<ClusterStats>,
     /// Bins of every `𝓘_k`, sorted by [`key`].
@@ -98,6 +100,25 @@ pub struct ClusterTables {
     pub(super) rg_start: Vec<u32>,
     /// The blue value of each entry (searched contiguously).
     pub(super) blue: Vec<u8>,
+    /// Unique to these contents: a fresh value from a process-wide counter at creation and
+    /// at every [`Self::update`] (a clone keeps it, as it keeps the contents). A
+    /// [`super::ReflectanceMemo`] is valid for one stamp only.
+    pub(super) stamp: u64,
+}
+
+/// Equal contents (the stamps are not compared).
+impl PartialEq for ClusterTables {
+    fn eq(&self, other: &Self) -> bool {
+        self.clusters == other.clusters
+            && self.entries == other.entries
+            && self.rg_start == other.rg_start
+            && self.blue == other.blue
+    }
+}
+
+fn next_stamp() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
 impl ClusterTables {
@@ -108,6 +129,7 @@ impl ClusterTables {
             entries: Vec::new(),
             rg_start: vec![0; 256 * 256 + 1],
             blue: Vec::new(),
+            stamp: next_stamp(),
         }
     }
 
@@ -225,6 +247,7 @@ impl ClusterTables {
                 );
             }
         }
+        self.stamp = next_stamp();
         Ok(())
     }
 

@@ -756,3 +756,215 @@ fn the_warped_position_inverts_a_smooth_flow() {
     }
     assert!(checked > 2500, "{checked}");
 }
+
+#[test]
+fn the_colour_ball_mean_matches_a_brute_force_sum() {
+    // Colours spread over a wide cube (balls of radius up to 60 meet many grid cells, some
+    // cut by the ball's surface), five clusters, two updates so bins accumulate.
+    let mut rng = ChaCha8Rng::seed_from_u64(91);
+    let (w, h) = (40u32, 30u32);
+    let mut tables = ClusterTables::new(0);
+    // (colour, cluster, reflectance) of every labelled pixel.
+    let mut all: Vec<([u8; 3], u32, [f32; 3])> = Vec::new();
+    for _ in 0..2 {
+        let values: Vec<f32> = (0..3 * w * h)
+            .map(|_| crate::color::srgb_to_linear(rng.random_range(40.0..200.0) / 255.0))
+            .collect();
+        let input = Image::from_vec(w, h, 3, values).unwrap();
+        let refl_values: Vec<f32> = (0..3 * w * h)
+            .map(|_| rng.random_range(0.05..1.0))
+            .collect();
+        let refl = Image::from_vec(w, h, 3, refl_values).unwrap();
+        let data: Vec<u32> = (0..w * h)
+            .map(|_| {
+                if rng.random_bool(0.1) {
+                    Labels::NONE
+                } else {
+                    rng.random_range(0..5)
+                }
+            })
+            .collect();
+        for (i, &l) in data.iter().enumerate() {
+            if l != Labels::NONE {
+                all.push((colour8(input.rgb(i)), l, refl.rgb(i)));
+            }
+        }
+        let labels = Labels {
+            width: w,
+            height: h,
+            data,
+            count: 5,
+        };
+        tables.update(&input, &refl, &labels).unwrap();
+    }
+    let index = ball::BallIndex::new(&tables);
+    let mut empty = 0;
+    for _ in 0..300 {
+        let c = [0; 3].map(|_| rng.random_range(20..230u8));
+        let radius = rng.random_range(0.0..60.0f64);
+        let k = rng.random_range(0..5u32);
+        let (mut n, mut sum) = (0u64, [0.0f64; 3]);
+        for (rgb, l, r) in &all {
+            let d2: f64 = (0..3).map(|j| (rgb[j] as f64 - c[j] as f64).powi(2)).sum();
+            if *l == k && d2 <= radius * radius {
+                n += 1;
+                for j in 0..3 {
+                    sum[j] += f64::from(r[j]);
+                }
+            }
+        }
+        let got = index.mean(c, radius, k);
+        if n == 0 {
+            empty += 1;
+            assert_eq!(got, None, "colour {c:?}, radius {radius}, cluster {k}");
+        } else {
+            let want = sum.map(|v| (v / n as f64) as f32);
+            let got = got.unwrap_or_else(|| panic!("{c:?} {radius} {k}: no mean"));
+            assert!(
+                got.iter().zip(&want).all(|(a, b)| (a - b).abs() < 1e-5),
+                "colour {c:?}, radius {radius}, cluster {k}: {got:?} against {want:?}"
+            );
+        }
+    }
+    // Both outcomes were exercised.
+    assert!(empty > 10 && empty < 290, "{empty} empty balls of 300");
+    // A cluster the tables do not have.
+    assert_eq!(index.mean([100; 3], 50.0, 5), None);
+}
+
+#[test]
+fn a_colour_ball_pools_the_reflectance_of_a_cluster() {
+    // Cluster 0 holds codes 100 (three pixels, reflectance 0.2) and 120 (one, 0.4); cluster 1
+    // holds code 110 (reflectance 0.9), 10 away from both, which must not enter cluster 0's
+    // mean. With the exact bin a pixel of code 100 keeps 0.2; with a ball of radius 40 (the
+    // distance 20√3 ≈ 34.6 between 100 and 120 is inside) it takes (3·0.2 + 0.4)/4 = 0.25.
+    let lin = |c: f32| crate::color::srgb_to_linear(c / 255.0);
+    let codes = [100.0, 100.0, 100.0, 120.0, 110.0];
+    let input = Image::from_fn(5, 1, |x, _| [lin(codes[x as usize]); 3]);
+    let refl = Image::from_fn(5, 1, |x, _| [[0.2, 0.2, 0.2, 0.4, 0.9][x as usize]; 3]);
+    let labels = Labels {
+        width: 5,
+        height: 1,
+        data: vec![0, 0, 0, 0, 1],
+        count: 2,
+    };
+    let tables = ClusterTables::from_frame(&input, &refl, &labels).unwrap();
+    let run = |radius: f64| {
+        let params = PropagateParams {
+            reflectance_radius: radius,
+            ..PropagateParams::default()
+        };
+        propagate(&tables, &labels, &input, &Flow::zeros(5, 1), &params).unwrap()
+    };
+    let exact = run(0.0);
+    let pooled = run(40.0);
+    assert_eq!(exact.labels.data, labels.data);
+    assert_eq!(pooled.labels.data, labels.data);
+    assert!(close(exact.reflectance.rgb(0), [0.2; 3]));
+    assert!(
+        close(pooled.reflectance.rgb(0), [0.25; 3]),
+        "{:?}",
+        pooled.reflectance.rgb(0)
+    );
+    assert!(close(pooled.reflectance.rgb(3), [0.25; 3]));
+    assert!(close(pooled.reflectance.rgb(4), [0.9; 3]));
+    // A ball smaller than the Parzen radius still gives every assigned pixel a reflectance:
+    // code 102 (no bin of its own; code 100 is 2√3 ≈ 3.5 away) with a ball of radius 1 holds
+    // no bin and falls back to the Parzen ball of d = 5, which holds code 100 only.
+    let next = Image::from_fn(5, 1, |x, _| {
+        [lin(if x == 0 { 102.0 } else { codes[x as usize] }); 3]
+    });
+    let small = PropagateParams {
+        reflectance_radius: 1.0,
+        ..PropagateParams::default()
+    };
+    let p = propagate(&tables, &labels, &next, &Flow::zeros(5, 1), &small).unwrap();
+    assert_eq!(p.labels.data[0], 0);
+    assert!(
+        close(p.reflectance.rgb(0), [0.2; 3]),
+        "{:?}",
+        p.reflectance.rgb(0)
+    );
+    // Out of range.
+    for bad in [-1.0, f64::NAN, f64::INFINITY] {
+        let params = PropagateParams {
+            reflectance_radius: bad,
+            ..PropagateParams::default()
+        };
+        assert!(matches!(
+            propagate(&tables, &labels, &input, &Flow::zeros(5, 1), &params),
+            Err(Error::InvalidParam { .. })
+        ));
+    }
+}
+
+#[test]
+fn the_reflectance_memo_never_changes_the_result() {
+    // Random colours, so that many (colour, cluster) pairs repeat between the two frames and
+    // the memo answers them; then the tables change, and the memo must not answer from the
+    // old tables.
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let (w, h) = (48u32, 36u32);
+    let random_frame = |rng: &mut ChaCha8Rng| {
+        let values: Vec<f32> = (0..3 * w * h)
+            .map(|_| crate::color::srgb_to_linear(rng.random_range(60.0..140.0) / 255.0))
+            .collect();
+        Image::from_vec(w, h, 3, values).unwrap()
+    };
+    let input0 = random_frame(&mut rng);
+    let refl0 = Image::from_vec(
+        w,
+        h,
+        3,
+        (0..3 * w * h).map(|_| rng.random_range(0.1..0.9)).collect(),
+    )
+    .unwrap();
+    let labels = Labels {
+        width: w,
+        height: h,
+        data: (0..w * h).map(|_| rng.random_range(0..4)).collect(),
+        count: 4,
+    };
+    let mut tables = ClusterTables::from_frame(&input0, &refl0, &labels).unwrap();
+    let params = PropagateParams {
+        reflectance_radius: 30.0,
+        epsilon: 0.3,
+        beta: 1.0,
+        ..PropagateParams::default()
+    };
+    let flow = Flow::zeros(w, h);
+    let mut memo = ReflectanceMemo::new();
+    let same =
+        |a: &Propagation, b: &Propagation| a.labels == b.labels && a.reflectance == b.reflectance;
+    for next in [&input0, &input0] {
+        let with = propagate_with(&tables, &labels, next, &flow, &params, &mut memo).unwrap();
+        assert!(with.assigned > 100, "{} assigned", with.assigned);
+        assert!(same(
+            &with,
+            &propagate(&tables, &labels, next, &flow, &params).unwrap()
+        ));
+    }
+    let kept = memo.len();
+    assert!(kept > 100, "{kept} pairs in the memo");
+    // New pixels change the ball means of the same pairs.
+    let refl1 = Image::from_vec(w, h, 3, vec![0.95; (3 * w * h) as usize]).unwrap();
+    tables.update(&input0, &refl1, &labels).unwrap();
+    let with = propagate_with(&tables, &labels, &input0, &flow, &params, &mut memo).unwrap();
+    let fresh = propagate(&tables, &labels, &input0, &flow, &params).unwrap();
+    assert!(same(&with, &fresh));
+    // Another radius with the same tables starts afresh too.
+    let wider = PropagateParams {
+        reflectance_radius: 60.0,
+        ..params.clone()
+    };
+    let with = propagate_with(&tables, &labels, &input0, &flow, &wider, &mut memo).unwrap();
+    assert!(same(
+        &with,
+        &propagate(&tables, &labels, &input0, &flow, &wider).unwrap()
+    ));
+    // A clone of the tables is equal to them, and an update makes them differ.
+    let mut copy = tables.clone();
+    assert!(copy == tables);
+    copy.update(&input0, &refl0, &labels).unwrap();
+    assert!(copy != tables);
+}

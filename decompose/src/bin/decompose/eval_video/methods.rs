@@ -112,7 +112,21 @@ pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
             Runner::Ours(
                 "ours, thesis' ε = 0.8, β = 2",
                 Box::new(VideoParams {
-                    propagate: PropagateParams::default(),
+                    propagate: PropagateParams {
+                        epsilon: PropagateParams::default().epsilon,
+                        beta: PropagateParams::default().beta,
+                        ..VideoParams::default().propagate
+                    },
+                    ..Default::default()
+                }),
+            ),
+            Runner::Ours(
+                "ours, exact colour bins (thesis)",
+                Box::new(VideoParams {
+                    propagate: PropagateParams {
+                        reflectance_radius: 0.0,
+                        ..VideoParams::default().propagate
+                    },
                     ..Default::default()
                 }),
             ),

@@ -41,7 +41,8 @@ pub(crate) struct EvalVideoArgs {
     /// Also the three ablations of the video method (thesis Fig. 3.11): completion on every
     /// frame, no confidence threshold, no optical flow; and the method without its per-frame
     /// blend (step 8, the thesis' output), with the thesis' first-frame cluster levels (no
-    /// border levelling), and with the thesis' confidence test (ε = 0.8, β = 2).
+    /// border levelling), with the thesis' confidence test (ε = 0.8, β = 2), and with the
+    /// thesis' exact colour bins (no colour ball).
     #[arg(long)]
     ablations: bool,
     /// Write every figure (with the per-frame LMSE curves) as JSON.
