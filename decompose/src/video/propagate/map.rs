@@ -218,6 +218,11 @@ pub fn propagate_with(
 
     // Posterior and the confidence test (§3.5.2), per pixel.
     let r2 = radius * radius;
+    // The prior of eq. 3.7 for the integer squared distances of the pixel grid, looked up
+    // instead of one `powf` per (pixel, candidate); the same values.
+    let priors: Vec<f64> = (0..=(r2 as usize).min(PRIOR_TABLE_MAX))
+        .map(|d2| prior(d2 as f64))
+        .collect();
     let decided: Vec<(u32, Option<[f32; 3]>, f32)> = (0..n)
         .into_par_iter()
         .map(|i| {
@@ -231,9 +236,11 @@ pub fn propagate_with(
                 if d2 > r2 {
                     continue;
                 }
-                // Eq. 3.7 with D floored at half a pixel (D = 0 would be an infinite prior).
-                let prior = d2.max(D_FLOOR * D_FLOOR).powf(-0.25);
-                let score = cand.likelihood * prior;
+                let p = match priors.get(d2 as usize) {
+                    Some(&p) if d2.fract() == 0.0 => p,
+                    _ => prior(d2),
+                };
+                let score = cand.likelihood * p;
                 sum += score;
                 if score > best {
                     second = best;
@@ -260,12 +267,12 @@ pub fn propagate_with(
     // (colour, cluster). The Parzen ball of radius d always holds one of k's bins (the
     // likelihood is positive); a smaller colour ball may not, and then falls back to it.
     let mut missing: Vec<(u32, u32)> = decided
-        .iter()
+        .par_iter()
         .enumerate()
         .filter(|(_, d)| d.0 != Labels::NONE && d.1.is_none())
         .map(|(i, d)| (colour_index[i], d.0))
         .collect();
-    missing.sort_unstable();
+    missing.par_sort_unstable();
     missing.dedup();
     let fallback: Vec<[f32; 3]> = if pooled {
         let pairs: Vec<(u32, u32)> = missing
@@ -285,11 +292,10 @@ pub fn propagate_with(
             .collect()
     };
 
-    let mut labels = Vec::with_capacity(n);
-    let mut refl = Vec::with_capacity(3 * n);
-    let mut posterior = Vec::with_capacity(n);
-    for (i, (l, r, p)) in decided.into_iter().enumerate() {
-        let r = match r {
+    let refl: Vec<[f32; 3]> = decided
+        .par_iter()
+        .enumerate()
+        .map(|(i, &(l, r, _))| match r {
             Some(r) => r,
             None if l != Labels::NONE => {
                 let j = missing
@@ -298,11 +304,11 @@ pub fn propagate_with(
                 fallback[j]
             }
             None => [0.0; 3],
-        };
-        labels.push(l);
-        refl.extend_from_slice(&r);
-        posterior.push(p);
-    }
+        })
+        .collect();
+    let refl = refl.into_flattened();
+    let (labels, posterior): (Vec<u32>, Vec<f32>) =
+        decided.into_iter().map(|(l, _, p)| (l, p)).unzip();
     let assigned = labels.iter().filter(|&&l| l != Labels::NONE).count();
     Ok(Propagation {
         labels: Labels {
@@ -316,6 +322,15 @@ pub fn propagate_with(
         assigned,
     })
 }
+
+/// Eq. 3.7's prior `D^{-1/2}` for a squared distance `d2`, with `D` floored at
+/// [`D_FLOOR`] (`D = 0` would be an infinite prior).
+fn prior(d2: f64) -> f64 {
+    d2.max(D_FLOOR * D_FLOOR).powf(-0.25)
+}
+
+/// Largest squared distance whose prior is tabulated per call of [`propagate_with`].
+const PRIOR_TABLE_MAX: usize = 1 << 14;
 
 /// Marks a pixel without a source in frame t.
 const NONE: u32 = u32::MAX;
