@@ -219,7 +219,7 @@ fn slope_change(
 }
 
 /// The crease cue of one view: `ω_occ` on the pairs across which the disparity's slope changes
-/// by more than `step` ([`slope_change`]), 1 elsewhere and on the pairs at the border.
+/// by more than `step` (`slope_change`), 1 elsewhere and on the pairs at the border.
 pub fn crease_cue(
     width: usize,
     height: usize,

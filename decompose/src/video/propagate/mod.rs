@@ -49,7 +49,7 @@
 //!   - `D = 0` (`p′` lands on a pixel of `k`) would give an infinite prior, i.e. the issue,
 //!     taken literally, assigns every pixel whose `p′` lands on a cluster to that cluster and
 //!     leaves nothing to the confidence test; we read it as `D` floored at half a pixel
-//!     (`D_FLOOR` = 0.5 in `map`), the uncertainty of the rounded `p′`.
+//!     (`D_FLOOR` = 0.5 in `prior`), the uncertainty of the rounded `p′`.
 //!     A pixel on the boundary between two clusters of the same colour (`p′` on one, the
 //!     other 1 px away) then gets priors √2 : 1, a posterior ≈ 0.59 < `ε`, and stays
 //!     unassigned. An earlier floor of 1 pixel made every pixel within about 13 px of
@@ -116,6 +116,7 @@
 mod ball;
 mod map;
 mod parzen;
+mod prior;
 mod stop;
 mod tables;
 #[cfg(test)]

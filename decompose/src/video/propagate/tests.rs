@@ -580,7 +580,7 @@ fn distance_transform_matches_brute_force() {
         let req: Vec<(usize, u32)> = (0..rng.random_range(1..10))
             .map(|j| (j, rng.random_range(0..n as u32)))
             .collect();
-        let got = map::nearest_dist2(&labels, 0, &req, reach);
+        let got = prior::nearest_dist2(&labels, 0, &req, reach);
         for (&(_, s), &d2) in req.iter().zip(&got) {
             let (sx, sy) = ((s % w) as i64, (s / w) as i64);
             let best = (0..n)
