@@ -109,9 +109,9 @@
 //! pixel), the cached flows (8 bytes a pixel per direction) and step 8's single-image shading
 //! (4 bytes a pixel); see module `state`. Frames are re-read from the [`FrameSource`] whenever
 //! a pass needs them. In memory: the cluster tables, at most three frames with their states,
-//! a few numbers per frame ([`FrameStats`]), the colour-ball reflectances of the current
-//! tables ([`crate::video::propagate::ReflectanceMemo`], capped), for step 7 a histogram of 4 KiB per pair of
-//! touching clusters, and for step 8 the previous frame's log reflectance and log intensity.
+//! a few numbers per frame ([`FrameStats`]), the colour-ball reflectances of the current tables
+//! ([`crate::video::propagate::ReflectanceMemo`], capped), for step 7 a histogram of 4 KiB per pair
+//! of touching clusters, and for step 8 the previous frame's log reflectance and log intensity.
 //! The [`FrameSink`] is called once per frame, in order, after all the passes and step 7, with
 //! the final results of step 8.
 //!
