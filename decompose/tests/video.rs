@@ -113,16 +113,23 @@ fn video_writes_every_layer_of_every_frame_and_the_product_is_the_input() {
     }
 }
 
+/// `decompose video` on the fixture into `dir/name` with `--linear-output` and `extra`; it must
+/// succeed. Returns the output folder.
+fn linear_run(dir: &Path, name: &str, extra: &[&str]) -> PathBuf {
+    let out = dir.join(name);
+    let o = run_video(
+        &tiny().join("input"),
+        &out,
+        &[&["--linear-output"], extra].concat(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    out
+}
+
 #[test]
 fn no_blend_gives_the_propagated_decomposition() {
     let dir = tempfile::tempdir().unwrap();
-    let input = tiny().join("input");
-    let run = |name: &str, extra: &[&str]| {
-        let out = dir.path().join(name);
-        let o = run_video(&input, &out, &[&["--linear-output"], extra].concat());
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        out
-    };
+    let run = |name: &str, extra: &[&str]| linear_run(dir.path(), name, extra);
     let (blended, thesis) = (run("blended", &[]), run("thesis", &["--no-blend"]));
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(thesis.join("stats.json")).unwrap()).unwrap();
@@ -160,9 +167,7 @@ fn the_reflectance_radius_is_recorded_and_changes_the_reflectance() {
     let dir = tempfile::tempdir().unwrap();
     let input = tiny().join("input");
     let run = |name: &str, extra: &[&str]| {
-        let out = dir.path().join(name);
-        let o = run_video(&input, &out, &[&["--linear-output"], extra].concat());
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let out = linear_run(dir.path(), name, extra);
         let stats: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap())
                 .unwrap();
