@@ -142,7 +142,7 @@ fn cell_gap2(cell: [u32; 3], c: [i32; 3]) -> f64 {
 /// A memo serves one [`ClusterTables`] at a time: given other tables (or the same after an
 /// update, or another radius) it starts afresh, so it never returns a stale value. Memory: the
 /// ball index (one 48-byte bin per bin of `𝓘_k`, and 16 KiB per cluster) and about 30 bytes per
-/// pair, at most [`ReflectanceMemo::CAPACITY`] pairs (then it starts afresh).
+/// pair; once past [`ReflectanceMemo::CAPACITY`] pairs it starts afresh at the next call.
 #[derive(Debug, Default)]
 pub struct ReflectanceMemo {
     stamp: u64,
