@@ -14,7 +14,6 @@ use decompose::io::{self, Depth, Encoding, LoadOptions};
 use decompose::video::frames::{FrameOptions, FrameSource};
 use decompose::video::labels_io::save_labels;
 use decompose::video::method::{FrameSink, VideoFrame, VideoParams, decompose_video};
-use decompose::video::propagate::PropagateParams;
 
 use crate::common::{TempDir, bar, output_format};
 use crate::image_cmd::{OutputArgs, StrokeArgs};
@@ -251,15 +250,11 @@ pub(crate) fn run_video(a: VideoArgs) -> Result<()> {
         pb.set_position((p.fraction * 100.0) as u64);
         pb.set_message(p.stage);
     };
-    let defaults = VideoParams::default();
-    let params = VideoParams {
+    let mut params = VideoParams {
         fusion: (!a.no_blend).then(Default::default),
-        propagate: PropagateParams {
-            reflectance_radius: a.reflectance_radius,
-            ..defaults.propagate.clone()
-        },
-        ..defaults
+        ..Default::default()
     };
+    params.propagate.reflectance_radius = a.reflectance_radius;
     let stats = decompose_video(
         &source,
         &strokes,

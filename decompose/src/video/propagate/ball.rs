@@ -19,21 +19,15 @@ use super::tables::{ClusterTables, add3};
 const CELL_SHIFT: u32 = 4;
 const CELLS_PER_AXIS: u32 = 256 >> CELL_SHIFT;
 
-/// One bin of `𝓘_k`: (colour, count, reflectance sum).
-#[derive(Clone, Debug)]
-struct Bin {
-    rgb: [i32; 3],
-    count: u64,
-    refl_sum: [f64; 3],
-}
-
 /// The bins of every cluster grouped by (cluster, cell), built by a counting sort of the
-/// tables' bins (O(bins + clusters × cells)) once per state of the tables.
+/// tables' bins (O(bins + clusters × cells)) once per state of the tables. It holds positions
+/// in the tables' bin array, so it is valid only for the tables it was built from, unchanged.
 #[derive(Debug)]
 pub(super) struct BallIndex {
-    /// `bins[start[c]..start[c + 1]]` lie in cell `c % CELLS` of cluster `c / CELLS`.
+    /// `order[start[c]..start[c + 1]]` are the positions in `ClusterTables::entries` of the
+    /// bins in cell `c % CELLS` of cluster `c / CELLS`.
     start: Vec<u32>,
-    bins: Vec<Bin>,
+    order: Vec<u32>,
 }
 
 const CELLS: usize = (CELLS_PER_AXIS * CELLS_PER_AXIS * CELLS_PER_AXIS) as usize;
@@ -58,30 +52,25 @@ impl BallIndex {
         // Scattered in the tables' (colour, cluster) order, so every cell's bins, and the
         // sums over them, come in a fixed order whatever the thread count.
         let mut next = start.clone();
-        let mut bins = vec![
-            Bin {
-                rgb: [0; 3],
-                count: 0,
-                refl_sum: [0.0; 3],
-            };
-            tables.entries.len()
-        ];
-        for e in &tables.entries {
+        let mut order = vec![0u32; tables.entries.len()];
+        for (pos, e) in tables.entries.iter().enumerate() {
             let j = &mut next[slot(e)];
-            bins[*j as usize] = Bin {
-                rgb: e.rgb.map(i32::from),
-                count: e.count,
-                refl_sum: e.refl_sum,
-            };
+            order[*j as usize] = pos as u32;
             *j += 1;
         }
-        Self { start, bins }
+        Self { start, order }
     }
 
     /// The count-weighted mean reflectance of cluster `k`'s bins within Euclidean distance
     /// `radius` (inclusive) of `colour`; `None` when the ball holds none of them (or `k` is
-    /// not a cluster of the tables).
-    pub(super) fn mean(&self, colour: [u8; 3], radius: f64, k: u32) -> Option<[f32; 3]> {
+    /// not a cluster of the tables). `tables` must be those the index was built from.
+    pub(super) fn mean(
+        &self,
+        tables: &ClusterTables,
+        colour: [u8; 3],
+        radius: f64,
+        k: u32,
+    ) -> Option<[f32; 3]> {
         if (k as usize + 1) * CELLS >= self.start.len() {
             return None;
         }
@@ -99,12 +88,12 @@ impl BallIndex {
                         continue;
                     }
                     let j = cell_of(k, cell);
-                    let bins = &self.bins[self.start[j] as usize..self.start[j + 1] as usize];
-                    for bin in bins {
-                        let d2: i32 = (0..3).map(|i| (bin.rgb[i] - c[i]).pow(2)).sum();
+                    for &pos in &self.order[self.start[j] as usize..self.start[j + 1] as usize] {
+                        let e = &tables.entries[pos as usize];
+                        let d2: i32 = (0..3).map(|i| (i32::from(e.rgb[i]) - c[i]).pow(2)).sum();
                         if f64::from(d2) <= r2 {
-                            count += bin.count;
-                            add3(&mut sum, bin.refl_sum);
+                            count += e.count;
+                            add3(&mut sum, e.refl_sum);
                         }
                     }
                 }
@@ -141,7 +130,7 @@ fn cell_gap2(cell: [u32; 3], c: [i32; 3]) -> f64 {
 ///
 /// A memo serves one [`ClusterTables`] at a time: given other tables (or the same after an
 /// update, or another radius) it starts afresh, so it never returns a stale value. Memory: the
-/// ball index (one 48-byte bin per bin of `𝓘_k`, and 16 KiB per cluster) and about 30 bytes per
+/// ball index (4 bytes per bin of `𝓘_k`, and 16 KiB per cluster) and about 30 bytes per
 /// pair; once past [`ReflectanceMemo::CAPACITY`] pairs it starts afresh at the next call.
 #[derive(Debug, Default)]
 pub struct ReflectanceMemo {
@@ -204,7 +193,7 @@ impl ReflectanceMemo {
                 .map(|&(colour, k)| {
                     let [_, r, g, b] = colour.to_be_bytes();
                     index
-                        .mean([r, g, b], radius, k)
+                        .mean(tables, [r, g, b], radius, k)
                         .or_else(|| tables.ball_mean([r, g, b], d, k))
                         .expect("an assigned cluster has a bin in the Parzen ball")
                 })

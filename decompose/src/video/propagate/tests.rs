@@ -813,7 +813,7 @@ fn the_colour_ball_mean_matches_a_brute_force_sum() {
                 }
             }
         }
-        let got = index.mean(c, radius, k);
+        let got = index.mean(&tables, c, radius, k);
         if n == 0 {
             empty += 1;
             assert_eq!(got, None, "colour {c:?}, radius {radius}, cluster {k}");
@@ -829,7 +829,7 @@ fn the_colour_ball_mean_matches_a_brute_force_sum() {
     // Both outcomes were exercised.
     assert!(empty > 10 && empty < 290, "{empty} empty balls of 300");
     // A cluster the tables do not have.
-    assert_eq!(index.mean([100; 3], 50.0, 5), None);
+    assert_eq!(index.mean(&tables, [100; 3], 50.0, 5), None);
 }
 
 #[test]
