@@ -95,7 +95,22 @@ impl Run<'_> {
         let f = self.flow(from.index, to, from.img, img)?;
         let t0 = Instant::now();
         let labels = from.state.labels(self.tables.cluster_count());
-        let prop = propagate_with(&self.tables, &labels, img, &f, pp, &mut self.memo)?;
+        // Only the still unassigned pixels are decided: after the first pass that is a few
+        // percent of a frame, and a pixel's decision does not depend on the others.
+        let open: Vec<bool> = state
+            .source
+            .iter()
+            .map(|&s| s == PixelSource::Unassigned)
+            .collect();
+        let prop = propagate_with(
+            &self.tables,
+            &labels,
+            img,
+            &f,
+            pp,
+            &mut self.memo,
+            Some(&open),
+        )?;
         let floor = (img.max() * crate::decomposition::SHADING_FLOOR).max(f32::MIN_POSITIVE);
         let mut added = 0;
         for i in 0..state.len() {

@@ -68,12 +68,21 @@ pub fn propagate(
         flow,
         params,
         &mut ReflectanceMemo::new(),
+        None,
     )
 }
 
 /// [`propagate`] keeping the colour-ball reflectances of [`PropagateParams::reflectance_radius`]
 /// in `memo` for the next call with the same tables (the result is the same with or without
-/// the memo, only faster when frames share colours).
+/// the memo, only faster when frames share colours), and deciding only the pixels marked in
+/// `targets` (one flag per pixel of frame t+1; `None`: every pixel). A pixel's decision
+/// depends on its own colour and source alone, so each targeted pixel gets the same cluster,
+/// reflectance and posterior as with `None`; the others are left unassigned with posterior 0.
+/// The later passes and the backward propagation of the video method fill a few percent of a
+/// frame, and only those pixels' colours need their likelihoods.
+///
+/// Errors: those of [`propagate`], and [`Error::ShapeMismatch`] when `targets` does not have
+/// one flag per pixel.
 pub fn propagate_with(
     tables: &ClusterTables,
     prev: &Labels,
@@ -81,6 +90,7 @@ pub fn propagate_with(
     flow: &Flow,
     params: &PropagateParams,
     memo: &mut ReflectanceMemo,
+    targets: Option<&[bool]>,
 ) -> Result<Propagation> {
     params.validate()?;
     check_labels(prev)?;
@@ -109,13 +119,26 @@ pub fn propagate_with(
     }
     let (w, h) = (dims.0 as usize, dims.1 as usize);
     let n = w * h;
+    if let Some(t) = targets
+        && t.len() != n
+    {
+        return Err(Error::ShapeMismatch {
+            expected: dims,
+            got: (t.len() as u32, 1),
+        });
+    }
+    let wanted = |i: usize| targets.is_none_or(|t| t[i]);
 
     let pooled = params.reflectance_radius > 0.0;
 
-    // Likelihoods (eq. 3.6) once per distinct 8-bit colour of frame t+1.
+    // Likelihoods (eq. 3.6) once per distinct 8-bit colour of the targeted pixels of frame
+    // t+1 (`SKIPPED` for the others: colours use the low 24 bits only).
     let packed: Vec<u32> = (0..n)
         .into_par_iter()
         .map(|i| {
+            if !wanted(i) {
+                return SKIPPED;
+            }
             let [r, g, b] = colour8(next.rgb(i));
             u32::from_be_bytes([0, r, g, b])
         })
@@ -123,6 +146,9 @@ pub fn propagate_with(
     let mut distinct = packed.clone();
     distinct.par_sort_unstable();
     distinct.dedup();
+    if distinct.last() == Some(&SKIPPED) {
+        distinct.pop();
+    }
     // Runs of distinct colours that share (red, green), each handled by one task in order.
     let mut runs: Vec<(usize, usize)> = Vec::new();
     for (j, &c) in distinct.iter().enumerate() {
@@ -156,17 +182,27 @@ pub fn propagate_with(
         .collect();
     let colour_index: Vec<u32> = packed
         .par_iter()
-        .map(|c| {
+        .map(|&c| {
+            if c == SKIPPED {
+                return SKIPPED;
+            }
             distinct
-                .binary_search(c)
+                .binary_search(&c)
                 .expect("colour is in its own list") as u32
         })
         .collect();
 
-    // p′, the pixel of frame t that flows onto p (rounded), or NONE when outside frame t.
+    // p′, the pixel of frame t that flows onto p (rounded), or NONE when outside frame t (or
+    // p is not a target: no slots, so it stays unassigned).
     let source: Vec<u32> = (0..n)
         .into_par_iter()
-        .map(|i| source_pixel(flow, i % w, i / w))
+        .map(|i| {
+            if wanted(i) {
+                source_pixel(flow, i % w, i / w)
+            } else {
+                NONE
+            }
+        })
         .collect();
 
     // One slot per (pixel, candidate cluster): the squared distance from p′ to the cluster's
@@ -326,6 +362,8 @@ pub fn propagate_with(
 
 /// Marks a pixel without a source in frame t.
 const NONE: u32 = u32::MAX;
+/// Marks a pixel that is not a target, in place of its packed colour and colour index.
+const SKIPPED: u32 = u32::MAX;
 
 /// The row-major index of the pixel of frame t that the flow carries onto `(x, y)` of frame
 /// t+1: `p′ = p − f(p′)` by fixed-point iteration, rounded; [`NONE`] when outside the frame.

@@ -937,7 +937,7 @@ fn the_reflectance_memo_never_changes_the_result() {
     let same =
         |a: &Propagation, b: &Propagation| a.labels == b.labels && a.reflectance == b.reflectance;
     for next in [&input0, &input0] {
-        let with = propagate_with(&tables, &labels, next, &flow, &params, &mut memo).unwrap();
+        let with = propagate_with(&tables, &labels, next, &flow, &params, &mut memo, None).unwrap();
         assert!(with.assigned > 100, "{} assigned", with.assigned);
         assert!(same(
             &with,
@@ -949,7 +949,7 @@ fn the_reflectance_memo_never_changes_the_result() {
     // New pixels change the ball means of the same pairs.
     let refl1 = Image::from_vec(w, h, 3, vec![0.95; (3 * w * h) as usize]).unwrap();
     tables.update(&input0, &refl1, &labels).unwrap();
-    let with = propagate_with(&tables, &labels, &input0, &flow, &params, &mut memo).unwrap();
+    let with = propagate_with(&tables, &labels, &input0, &flow, &params, &mut memo, None).unwrap();
     let fresh = propagate(&tables, &labels, &input0, &flow, &params).unwrap();
     assert!(same(&with, &fresh));
     // Another radius with the same tables starts afresh too.
@@ -957,7 +957,7 @@ fn the_reflectance_memo_never_changes_the_result() {
         reflectance_radius: 60.0,
         ..params.clone()
     };
-    let with = propagate_with(&tables, &labels, &input0, &flow, &wider, &mut memo).unwrap();
+    let with = propagate_with(&tables, &labels, &input0, &flow, &wider, &mut memo, None).unwrap();
     assert!(same(
         &with,
         &propagate(&tables, &labels, &input0, &flow, &wider).unwrap()
@@ -967,4 +967,101 @@ fn the_reflectance_memo_never_changes_the_result() {
     assert!(copy == tables);
     copy.update(&input0, &refl0, &labels).unwrap();
     assert!(copy != tables);
+}
+
+#[test]
+fn targeted_pixels_get_the_same_decision_as_a_full_propagation() {
+    // Random colours and labels, a flow that moves by a pixel and a half, and a random third of
+    // the pixels as targets: each target decides as in the full propagation, every other pixel
+    // is left unassigned with posterior 0.
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let (w, h) = (40u32, 30u32);
+    let n = (w * h) as usize;
+    let frame = |rng: &mut ChaCha8Rng| {
+        let values: Vec<f32> = (0..3 * n)
+            .map(|_| crate::color::srgb_to_linear(rng.random_range(40.0..160.0) / 255.0))
+            .collect();
+        Image::from_vec(w, h, 3, values).unwrap()
+    };
+    let (input0, input1) = (frame(&mut rng), frame(&mut rng));
+    let refl0 = Image::from_vec(
+        w,
+        h,
+        3,
+        (0..3 * n).map(|_| rng.random_range(0.1..0.9)).collect(),
+    )
+    .unwrap();
+    let labels = Labels {
+        width: w,
+        height: h,
+        data: (0..n).map(|_| rng.random_range(0..5)).collect(),
+        count: 5,
+    };
+    let tables = ClusterTables::from_frame(&input0, &refl0, &labels).unwrap();
+    let flow = Flow::from_fn(w, h, |_, _| [1.5, -0.5]);
+    let targets: Vec<bool> = (0..n).map(|_| rng.random_bool(0.3)).collect();
+    // The thesis' exact colour bins, and a colour ball.
+    for radius in [0.0, 30.0] {
+        let params = PropagateParams {
+            epsilon: 0.3,
+            beta: 1.0,
+            reflectance_radius: radius,
+            ..PropagateParams::default()
+        };
+        targets_decide_as_in_full(&tables, &labels, &input1, &flow, &params, &targets);
+    }
+}
+
+fn targets_decide_as_in_full(
+    tables: &ClusterTables,
+    labels: &Labels,
+    input1: &Image,
+    flow: &Flow,
+    params: &PropagateParams,
+    targets: &[bool],
+) {
+    let n = targets.len();
+    let full = propagate(tables, labels, input1, flow, params).unwrap();
+    assert!(full.assigned > n / 4, "{} assigned", full.assigned);
+    let part = propagate_with(
+        tables,
+        labels,
+        input1,
+        flow,
+        params,
+        &mut ReflectanceMemo::new(),
+        Some(targets),
+    )
+    .unwrap();
+    let mut assigned = 0;
+    for (i, &t) in targets.iter().enumerate() {
+        if t {
+            assert_eq!(part.labels.data[i], full.labels.data[i], "pixel {i}");
+            assert_eq!(
+                part.reflectance.rgb(i),
+                full.reflectance.rgb(i),
+                "pixel {i}"
+            );
+            assert_eq!(part.posterior[i], full.posterior[i], "pixel {i}");
+            assigned += usize::from(full.labels.data[i] != Labels::NONE);
+        } else {
+            assert_eq!(part.labels.data[i], Labels::NONE, "pixel {i}");
+            assert_eq!(part.posterior[i], 0.0, "pixel {i}");
+        }
+    }
+    assert_eq!(part.assigned, assigned);
+    assert!(assigned > 50, "{assigned} targets assigned");
+    // One flag per pixel, or an error.
+    assert!(matches!(
+        propagate_with(
+            tables,
+            labels,
+            input1,
+            flow,
+            params,
+            &mut ReflectanceMemo::new(),
+            Some(&targets[1..]),
+        ),
+        Err(Error::ShapeMismatch { .. })
+    ));
 }
