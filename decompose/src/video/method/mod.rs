@@ -22,10 +22,13 @@
 //!    at 800×600 from 134 s to 99 s for 100 frames with the same output.
 //! 4. **Propagation** (§3.5.1–3.5.2): [`propagate`] from frame t to t + 1 (or t + 1 to t on the
 //!    way back). It only fills pixels that are still unassigned: a pixel, once assigned, keeps
-//!    its value, so every pixel is assigned exactly once. The issue gives the propagated
-//!    reflectance `R̂` per pixel, in RGB, while `R × S = I` must hold with a grey shading; we
-//!    take the grey shading that fits `I ≈ R̂ S` in least squares, `S = Σ_c I_c R̂_c / Σ_c R̂_c²`,
-//!    and `R = I / S` (equal to `R̂` when the pixel's chromaticity matches the table's).
+//!    its value, so every pixel is assigned exactly once; and it only computes those pixels
+//!    (`propagate_with`'s targets), so the later passes and the backward propagation, which
+//!    fill a few percent of a frame, cost a few percent of the first pass. The issue gives the
+//!    propagated reflectance `R̂` per pixel, in RGB, while `R × S = I` must hold with a grey
+//!    shading; we take the grey shading that fits `I ≈ R̂ S` in least squares,
+//!    `S = Σ_c I_c R̂_c / Σ_c R̂_c²`, and `R = I / S` (equal to `R̂` when the pixel's
+//!    chromaticity matches the table's).
 //!    `R̂` is the mean reflectance of the cluster's colours in `𝓘_k` within 90 colour units of
 //!    the pixel's ([`DEFAULT_REFLECTANCE_RADIUS`]; not in the thesis, which reads the bin of
 //!    the exact colour): under a moving light one albedo's colour changes, and the exact bin
@@ -96,8 +99,9 @@
 //!    more than a gate starts afresh). On the twelve rendered tuning sequences,
 //!    leave-one-sequence-out: mean LMSE 0.0403 against 0.0491 for steps 1–7 alone and 0.0451
 //!    for per-frame Retinex, flicker below per-frame Retinex on all twelve
-//!    (`docs/video-data.md`). The single-image decompositions run beside the third pass's
-//!    propagation and are cached in the scratch folder (4 bytes a pixel).
+//!    (`docs/video-data.md`). The single-image decompositions run after the passes, as many
+//!    frames at a time as there are threads, and are cached in the scratch folder (4 bytes a
+//!    pixel).
 //!
 //! Bookkeeping ([`FrameStats`]): every pixel's final value comes from exactly one of
 //! propagation, completion or the residual fill; the first frame's pixels count as
@@ -111,9 +115,10 @@
 //! a pass needs them. In memory: the cluster tables, at most three frames with their states,
 //! a few numbers per frame ([`FrameStats`]), the colour-ball reflectances of the current tables
 //! ([`crate::video::propagate::ReflectanceMemo`], capped), for step 7 a histogram of 4 KiB per pair
-//! of touching clusters, and for step 8 the previous frame's log reflectance and log intensity.
-//! The [`FrameSink`] is called once per frame, in order, after all the passes and step 7, with
-//! the final results of step 8.
+//! of touching clusters, and for step 8 the previous frame's log reflectance and log intensity
+//! (and, while its single-image decompositions run, one frame and its decomposition per
+//! thread). The [`FrameSink`] is called once per frame, in order, after all the passes and
+//! step 7, with the final results of step 8.
 //!
 //! # Measured (2026-12-04; `examples/video_method.rs`, the 2-core machine shared, load 3–5)
 //!
@@ -381,6 +386,9 @@ pub fn decompose_video(
             run.forward_pass(pass, progress)?;
         }
     }
+    let t_views = Instant::now();
+    run.cache_views(progress)?;
+    let views_ms = t_views.elapsed().as_secs_f64() * 1e3;
     let levels = sink::output(&mut run, strokes, sink, progress)?;
     let mut stopping = std::mem::take(&mut run.stopping);
     stopping.sort_unstable();
@@ -391,6 +399,7 @@ pub fn decompose_video(
         stopping_frames: stopping,
         first_frame_ms,
         total_ms: t_start.elapsed().as_secs_f64() * 1e3,
+        views_ms,
         levels,
     })
 }

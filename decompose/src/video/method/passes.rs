@@ -4,6 +4,8 @@
 
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use crate::error::Result;
 use crate::image::Image;
 use crate::image::Mask;
@@ -16,7 +18,7 @@ use crate::video::propagate::{
 
 use super::complete::complete_frame;
 use super::first::FIRST_FRAME_SHARE;
-use super::fusion::{FusionParams, single_view_shading};
+use super::fusion::single_view_shading;
 use super::state::{FrameState, PixelSource, Scratch};
 use super::{FrameStats, VideoParams};
 
@@ -132,34 +134,51 @@ impl Run<'_> {
         Ok(added)
     }
 
-    /// Whether step 8 wants each frame's single-image shading (it is on and blends).
-    fn wants_views(&self) -> bool {
-        self.params
-            .fusion
-            .as_ref()
-            .is_some_and(FusionParams::blends)
-    }
-
-    /// Computes and caches frame `t`'s single-image shading (step 8) unless cached.
-    fn cache_view(&self, t: usize, img: &Image) -> Result<f64> {
-        let t0 = Instant::now();
-        if self.scratch.has_view_shading(t) {
-            return Ok(0.0);
+    /// Step 8's single-image shading of every frame, cached in the scratch folder (a frame
+    /// already cached is skipped). The frames are independent, so they run as many at a time
+    /// as there are threads: after the first pass the propagation decides only a few percent
+    /// of each frame and leaves a core idle, and one decomposition (its solve is serial) keeps
+    /// about one core busy. `bench --video` (800×600, 100 frames): 61 s, against 69–70 s with
+    /// one frame at a time beside the third pass's propagation.
+    pub fn cache_views(&mut self, progress: ProgressFn) -> Result<()> {
+        let Some(fusion) = self.params.fusion.as_ref().filter(|f| f.blends()) else {
+            return Ok(());
+        };
+        let n = self.source.len();
+        let (source, scratch) = (self.source, &self.scratch);
+        let frames: Vec<usize> = (0..n).filter(|&t| !scratch.has_view_shading(t)).collect();
+        let batch = rayon::current_num_threads().max(1);
+        for (done, chunk) in frames.chunks(batch).enumerate() {
+            let took: Vec<Result<f64>> = chunk
+                .par_iter()
+                .map(|&t| {
+                    let img = source.frame(t)?;
+                    let t0 = Instant::now();
+                    let v = single_view_shading(&img, &fusion.view)?;
+                    scratch.save_view_shading(t, img.dims(), &v)?;
+                    Ok(ms(t0))
+                })
+                .collect();
+            for (&t, ms) in chunk.iter().zip(took) {
+                self.stats[t].view_ms += ms?;
+            }
+            progress(Progress {
+                stage: VIEW_STAGE,
+                fraction: stage_fraction(
+                    VIEWS,
+                    ((done + 1) * batch).min(frames.len()) as f32 / frames.len() as f32,
+                ),
+            });
         }
-        if let Some(p) = &self.params.fusion {
-            let v = single_view_shading(img, &p.view)?;
-            self.scratch.save_view_shading(t, img.dims(), &v)?;
-        }
-        Ok(ms(t0))
+        Ok(())
     }
 
     /// One forward pass (`pass` = 0, 1, 2): frames 1..n in order; see the module docs.
     pub fn forward_pass(&mut self, pass: usize, progress: ProgressFn) -> Result<()> {
         let n = self.source.len();
-        let dims = self.dims();
         let pp = self.pass_params(pass);
         let mut prev_img = self.source.frame(0)?;
-        let mut prev = self.scratch.load_state(0, dims)?;
+        let mut prev = self.scratch.load_state(0, self.dims())?;
         let mut last_stop = 0;
         let mut next_img = if n > 1 {
             Some(self.source.frame(1)?)
@@ -172,15 +191,6 @@ impl Run<'_> {
         {
             // Frame 1's flow has nothing to overlap with (later passes find it cached).
             self.flow(0, 1, &prev_img, img1)?;
-        }
-        // Step 8's single-image shading in the pass of `VIEW_PASS`: frames 0 and 1 here, each
-        // later one beside the propagation into the frame before it (below).
-        let views = self.wants_views() && pass == VIEW_PASS;
-        if views {
-            self.stats[0].view_ms += self.cache_view(0, &prev_img)?;
-            if let Some(img1) = next_img.as_ref() {
-                self.stats[1].view_ms += self.cache_view(1, img1)?;
-            }
         }
         for t in 1..n {
             let img = match next_img.take() {
@@ -198,41 +208,25 @@ impl Run<'_> {
             let prefetch = next_img.as_ref().filter(|_| {
                 !self.params.ablation.no_optical_flow && !self.scratch.has_flow(t, true)
             });
-            // Step 8's single-image shading of frame t + 1, beside this frame's propagation in
-            // the pass of `VIEW_PASS`.
-            let view_ahead = next_img
-                .as_ref()
-                .filter(|_| views && !self.scratch.has_view_shading(t + 1));
             let flow_params = self.params.flow.clone();
-            let fusion_params = self.params.fusion.clone();
             let (ahead, this) = rayon::join(
                 || {
-                    let f = prefetch.map(|next| {
+                    prefetch.map(|next| {
                         let t0 = Instant::now();
                         flow(&img, next, &flow_params).map(|f| (f, ms(t0)))
-                    });
-                    let v = view_ahead.zip(fusion_params.as_ref()).map(|(next, p)| {
-                        let t0 = Instant::now();
-                        single_view_shading(next, &p.view).map(|v| (v, ms(t0)))
-                    });
-                    (f, v)
+                    })
                 },
                 || self.forward_frame(t, &pp, &img, &prev, &prev_img, &mut last_stop),
             );
             let state = this?;
-            if let Some(f) = ahead.0 {
+            if let Some(f) = ahead {
                 let (f, took) = f?;
                 self.scratch.save_flow(t, true, &f)?;
                 self.stats[t + 1].flow_ms += took;
             }
-            if let Some(v) = ahead.1 {
-                let (v, took) = v?;
-                self.scratch.save_view_shading(t + 1, dims, &v)?;
-                self.stats[t + 1].view_ms += took;
-            }
             progress(Progress {
                 stage: PASS_STAGES[pass],
-                fraction: pass_fraction(pass, t as f32 / (n - 1).max(1) as f32),
+                fraction: stage_fraction(pass, t as f32 / (n - 1).max(1) as f32),
             });
             prev = state;
             prev_img = img;
@@ -376,25 +370,24 @@ pub(crate) fn stop_region(assigned: &Mask, m: u32, alpha: f64) -> Result<Option<
 }
 
 const PASS_STAGES: [&str; 3] = ["pass 1 (M = 30)", "pass 2 (M = 20)", "pass 3 (M = 10)"];
+/// The progress stage of step 8's single-image decompositions ([`Run::cache_views`]).
+const VIEW_STAGE: &str = "single-image decompositions";
+/// The stage index of [`Run::cache_views`] in [`stage_fraction`], after the three passes.
+const VIEWS: usize = 3;
 
-/// Share of the progress bar after `done` of pass `pass`; the passes share what the first
-/// frame and the output leave, the first pass (which computes the flows) half of it.
-pub(crate) fn pass_fraction(pass: usize, done: f32) -> f32 {
+/// Share of the progress bar after `done` of stage `stage` (the passes 0, 1, 2, then
+/// [`VIEWS`]); they share what the first frame and the output leave, in proportion to their
+/// time in `bench --video` (the first pass computes the flows).
+pub(crate) fn stage_fraction(stage: usize, done: f32) -> f32 {
     let span = 1.0 - FIRST_FRAME_SHARE - OUTPUT_SHARE;
-    let (start, width) = match pass {
-        0 => (0.0, 0.5),
-        1 => (0.5, 0.25),
-        _ => (0.75, 0.25),
+    let (start, width) = match stage {
+        0 => (0.0, 0.6),
+        1 => (0.6, 0.15),
+        2 => (0.75, 0.05),
+        _ => (0.8, 0.2),
     };
     FIRST_FRAME_SHARE + span * (start + width * done)
 }
 
 /// The share of the progress bar given to the residual fill and the output.
 pub(crate) const OUTPUT_SHARE: f32 = 0.1;
-
-/// The pass whose frames also get step 8's single-image decomposition beside them: the third,
-/// whose flows are cached and which propagates into the fewest pixels. `bench --video`
-/// (800×600, 100 frames, 2026-12-05): 105–109 s in the first pass, whose flow already keeps
-/// the other core busy, 101 s in the second, 99 s in the third, 102 s split between the
-/// second and third; 83.5 s without step 8.
-const VIEW_PASS: usize = 2;

@@ -95,8 +95,8 @@ pub struct FrameStats {
     /// Completion and residual fill of this frame (frame 0: its Retinex and clusters),
     /// milliseconds.
     pub complete_ms: f64,
-    /// Step 8's single-image decomposition of this frame (in the third pass, beside the
-    /// propagation into the frame before it), milliseconds; 0 when the step is off.
+    /// Step 8's single-image decomposition of this frame (after the passes, as many frames at
+    /// a time as there are threads), milliseconds; 0 when the step is off.
     pub view_ms: f64,
     /// Step 8's blend and average along the flow on this frame (in the output), milliseconds;
     /// 0 when the step is off.
@@ -115,6 +115,9 @@ pub struct VideoStats {
     pub first_frame_ms: f64,
     /// The whole run, milliseconds.
     pub total_ms: f64,
+    /// Wall time of step 8's single-image decompositions (all frames, several at a time),
+    /// milliseconds; 0 when the step is off.
+    pub views_ms: f64,
     /// Number of clusters at the end (first frame's plus those made by completion).
     pub clusters: usize,
     /// The border levelling (module `levels`): pairs of touching clusters, mean |offset| (natural
