@@ -76,6 +76,9 @@ fn video_writes_every_layer_of_every_frame_and_the_product_is_the_input() {
     for f in stats["frames"].as_array().unwrap() {
         assert!(f["view_ms"].as_f64().unwrap() > 0.0, "{f}");
     }
+    // Their wall time is part of the total.
+    let views_ms = stats["views_ms"].as_f64().unwrap();
+    assert!(views_ms > 0.0 && views_ms < stats["total_ms"].as_f64().unwrap());
     let clusters = stats["clusters"].as_u64().unwrap() as usize;
     // The border levelling ran: touching pairs of clusters exist in a scene of several albedos.
     assert!(
@@ -134,6 +137,7 @@ fn no_blend_gives_the_propagated_decomposition() {
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(thesis.join("stats.json")).unwrap()).unwrap();
     assert_eq!(stats["per_frame_blend"], false);
+    assert_eq!(stats["views_ms"].as_f64().unwrap(), 0.0);
     for f in stats["frames"].as_array().unwrap() {
         assert_eq!(f["view_ms"].as_f64().unwrap(), 0.0, "{f}");
         assert_eq!(f["fusion_ms"].as_f64().unwrap(), 0.0, "{f}");

@@ -386,9 +386,7 @@ pub fn decompose_video(
             run.forward_pass(pass, progress)?;
         }
     }
-    let t_views = Instant::now();
-    run.cache_views(progress)?;
-    let views_ms = t_views.elapsed().as_secs_f64() * 1e3;
+    let views_ms = run.cache_views(progress)?;
     let levels = sink::output(&mut run, strokes, sink, progress)?;
     let mut stopping = std::mem::take(&mut run.stopping);
     stopping.sort_unstable();

@@ -138,12 +138,14 @@ impl Run<'_> {
     /// already cached is skipped). The frames are independent, so they run as many at a time
     /// as there are threads: after the first pass the propagation decides only a few percent
     /// of each frame and leaves a core idle, and one decomposition (its solve is serial) keeps
-    /// about one core busy. `bench --video` (800×600, 100 frames): 61 s, against 69–70 s with
-    /// one frame at a time beside the third pass's propagation.
-    pub fn cache_views(&mut self, progress: ProgressFn) -> Result<()> {
+    /// about one core busy. `bench --video` (800×600, 100 frames): 64.6–67.6 s, against
+    /// 67.3–70.0 s with one frame at a time beside the third pass's propagation.
+    /// Returns the wall time in milliseconds (0 when step 8 is off or does not blend).
+    pub fn cache_views(&mut self, progress: ProgressFn) -> Result<f64> {
         let Some(fusion) = self.params.fusion.as_ref().filter(|f| f.blends()) else {
-            return Ok(());
+            return Ok(0.0);
         };
+        let t_start = Instant::now();
         let n = self.source.len();
         let (source, scratch) = (self.source, &self.scratch);
         let frames: Vec<usize> = (0..n).filter(|&t| !scratch.has_view_shading(t)).collect();
@@ -159,8 +161,8 @@ impl Run<'_> {
                     Ok(ms(t0))
                 })
                 .collect();
-            for (&t, ms) in chunk.iter().zip(took) {
-                self.stats[t].view_ms += ms?;
+            for (&t, took_ms) in chunk.iter().zip(took) {
+                self.stats[t].view_ms += took_ms?;
             }
             progress(Progress {
                 stage: VIEW_STAGE,
@@ -170,7 +172,7 @@ impl Run<'_> {
                 ),
             });
         }
-        Ok(())
+        Ok(ms(t_start))
     }
 
     /// One forward pass (`pass` = 0, 1, 2): frames 1..n in order; see the module docs.

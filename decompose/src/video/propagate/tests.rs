@@ -1021,18 +1021,20 @@ fn targets_decide_as_in_full(
     targets: &[bool],
 ) {
     let n = targets.len();
+    let only = |targets: &[bool]| {
+        propagate_with(
+            tables,
+            labels,
+            input1,
+            flow,
+            params,
+            &mut ReflectanceMemo::new(),
+            Some(targets),
+        )
+    };
     let full = propagate(tables, labels, input1, flow, params).unwrap();
     assert!(full.assigned > n / 4, "{} assigned", full.assigned);
-    let part = propagate_with(
-        tables,
-        labels,
-        input1,
-        flow,
-        params,
-        &mut ReflectanceMemo::new(),
-        Some(targets),
-    )
-    .unwrap();
+    let part = only(targets).unwrap();
     let mut assigned = 0;
     for (i, &t) in targets.iter().enumerate() {
         if t {
@@ -1053,15 +1055,7 @@ fn targets_decide_as_in_full(
     assert!(assigned > 50, "{assigned} targets assigned");
     // One flag per pixel, or an error.
     assert!(matches!(
-        propagate_with(
-            tables,
-            labels,
-            input1,
-            flow,
-            params,
-            &mut ReflectanceMemo::new(),
-            Some(&targets[1..]),
-        ),
+        only(&targets[1..]),
         Err(Error::ShapeMismatch { .. })
     ));
 }
