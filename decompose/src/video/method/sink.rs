@@ -136,11 +136,17 @@ pub(crate) fn output(
     let n = run.source.len();
     let dims = run.source.size();
     let mut evidence = levels::BorderEvidence::default();
+    let voting = run.params.levels.as_ref().is_some_and(|l| l.view_vote)
+        && run.params.fusion.as_ref().is_some_and(|f| f.blends());
+    let mut views = levels::ViewLevels::default();
     for t in 0..n {
         let img = run.source.frame(t)?;
         let mut st = run.scratch.load_state(t, dims)?;
         let t0 = Instant::now();
         residual::fill_residual(&img, &mut st, &run.params.retinex.solver)?;
+        if voting && let Some(view) = run.scratch.load_view_shading(t, dims)? {
+            views.add_frame(&st.labels, &st.shading, &view);
+        }
         if run.params.levels.is_some() {
             evidence.add_frame(dims.0 as usize, &st.labels, &st.shading);
             if t == 0 {
@@ -167,6 +173,9 @@ pub(crate) fn output(
         Some(p) => evidence.offsets(clusters, p)?,
         None => Vec::new(),
     };
+    if voting && let Some(largest) = evidence.largest_cluster() {
+        views.vote(&mut delta, largest);
+    }
     let mean_abs_offset = if delta.is_empty() {
         0.0
     } else {

@@ -38,8 +38,10 @@
 use std::collections::HashMap;
 
 mod histogram;
+mod views;
 
 use histogram::Histogram;
+pub(crate) use views::ViewLevels;
 
 use crate::decomposition::Labels;
 use crate::error::{Error, Result};
@@ -59,6 +61,11 @@ pub struct BorderLevelParams {
     /// tuning sequences among 0.005, 0.02, 0.1 and plain least squares, with the thesis' `ε`,
     /// `β` of the time (every fold chose 0.1; the four differ by less than 3% in mean LMSE).
     pub residual_floor: f64,
+    /// Whether step 8's single-image decompositions vote on the offsets (module `views`): a
+    /// cluster keeps its offset only when it moves the cluster towards the level the single
+    /// views give it, else keeps the first frame's level. Needs step 8 with `β > 0`; without
+    /// it there is no vote. Default on.
+    pub view_vote: bool,
 }
 
 impl Default for BorderLevelParams {
@@ -66,6 +73,7 @@ impl Default for BorderLevelParams {
         Self {
             iterations: 10,
             residual_floor: 0.1,
+            view_vote: true,
         }
     }
 }
@@ -174,6 +182,13 @@ impl BorderEvidence {
     /// Number of touching pairs.
     pub fn pair_count(&self) -> usize {
         self.pairs.len()
+    }
+
+    /// The cluster with the most pixels over the frames seen so far (`None` before any).
+    pub fn largest_cluster(&self) -> Option<usize> {
+        (0..self.sizes.len())
+            .filter(|&k| self.sizes[k] > 0)
+            .max_by_key(|&k| (self.sizes[k], std::cmp::Reverse(k)))
     }
 
     /// The offsets `δ` (natural log, one per cluster up to `clusters`) of the module docs.

@@ -129,3 +129,50 @@ fn the_median_of_a_histogram() {
         .is_err()
     );
 }
+
+/// Four clusters in a row of pixels: 0 (the largest), 1 and 2, and 3 with no single-view
+/// shading. The single view puts cluster 1's shading `e^{−0.5}` below the propagated one and
+/// agrees on cluster 2, on another white point (twice the shading everywhere).
+fn view_levels() -> ViewLevels {
+    let labels: Vec<u32> = [0, 0, 0, 0, 1, 1, 2, 2, 3].to_vec();
+    let shading = vec![0.5f32; labels.len()];
+    let view: Vec<f32> = labels
+        .iter()
+        .map(|&l| match l {
+            1 => (1.0 * (-0.5f64).exp()) as f32,
+            3 => 0.0,
+            _ => 1.0,
+        })
+        .collect();
+    let mut views = ViewLevels::default();
+    views.add_frame(&labels, &shading, &view);
+    views
+}
+
+#[test]
+fn the_single_views_keep_an_offset_that_moves_towards_their_level() {
+    let views = view_levels();
+    // Cluster 1: the view's level is +0.5, the levelling's +0.6 moves towards it and stays.
+    // Cluster 2: the view agrees with the first frame's level, so +0.4 goes back to 0.
+    // Cluster 3: never lit in the view, keeps its offset.
+    let mut delta = vec![0.0, 0.6, 0.4, 0.3];
+    views.vote(&mut delta, 0);
+    assert_eq!(delta, [0.0, 0.6, 0.0, 0.3]);
+    // Relative to the reference cluster: the same with every offset shifted.
+    let mut shifted = vec![0.2, 0.8, 0.6, 0.5];
+    views.vote(&mut shifted, 0);
+    assert_eq!(shifted, [0.2, 0.8, 0.2, 0.5]);
+    // An offset in the other direction, or past twice the view's level, goes back.
+    for d1 in [-0.1, 1.05] {
+        let mut delta = vec![0.0, d1, 0.0, 0.0];
+        views.vote(&mut delta, 0);
+        assert_eq!(delta[1], 0.0, "{d1}");
+    }
+}
+
+#[test]
+fn without_single_views_nothing_changes() {
+    let mut delta = vec![0.0, 0.6, 0.4];
+    ViewLevels::default().vote(&mut delta, 0);
+    assert_eq!(delta, [0.0, 0.6, 0.4]);
+}
