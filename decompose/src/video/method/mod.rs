@@ -86,7 +86,11 @@
 //!    continuous across a border between two clusters) is fitted to the video's own clusters
 //!    with the evidence of every frame: per touching pair the median log-shading step, an L1
 //!    fit of one log offset per cluster, applied to every frame (`S·e^{−δ_k}`, `R·e^{δ_k}`).
-//!    Strokes on the first frame stay true. Measured in `docs/video-data.md`.
+//!    Strokes on the first frame stay true. Where a cast shadow is a cluster of its own the
+//!    shading does jump across its borders; step 8's single-image decompositions then vote
+//!    ([`BorderLevelParams::view_vote`], module `levels::views`): a cluster keeps its offset
+//!    only when it moves the cluster towards the single views' level. Measured in
+//!    `docs/video-data.md`.
 //!
 //! 8. **Each frame's own decomposition blended in** (module `fusion`, [`VideoParams::fusion`];
 //!    not in the thesis). Propagation keeps every error of the first frame's decomposition for
