@@ -174,7 +174,7 @@ pub(crate) fn output(
         None => Vec::new(),
     };
     if voting && let Some(largest) = evidence.largest_cluster() {
-        views.vote(&mut delta, largest);
+        views.vote(&mut delta, largest, |k| evidence.in_strokes(k));
     }
     let mean_abs_offset = if delta.is_empty() {
         0.0

@@ -184,6 +184,14 @@ impl BorderEvidence {
         self.pairs.len()
     }
 
+    /// Whether cluster `k` takes part in an equation of the user's strokes (its offset is then
+    /// the user's, not the single views' to vote on).
+    pub fn in_strokes(&self, k: usize) -> bool {
+        self.strokes
+            .keys()
+            .any(|&(a, b)| a as usize == k || b as usize == k)
+    }
+
     /// The cluster with the most pixels over the frames seen so far (`None` before any).
     pub fn largest_cluster(&self) -> Option<usize> {
         (0..self.sizes.len())

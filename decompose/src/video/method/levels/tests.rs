@@ -94,6 +94,11 @@ fn strokes_outweigh_the_borders() {
     let d = ev.offsets(2, &BorderLevelParams::default()).unwrap();
     let (r0, r1) = (0.5 * d[0].exp(), d[1].exp());
     assert!((r0 / r1 - 1.0).abs() < 0.01, "{d:?}: {r0} {r1}");
+    // Both clusters are the stroke's, so the single views do not vote on them.
+    assert!(ev.in_strokes(0) && ev.in_strokes(1) && !ev.in_strokes(2));
+    let mut unstroked = BorderEvidence::default();
+    unstroked.add_frame(2, &labels, &flat);
+    assert!(!unstroked.in_strokes(0));
 }
 
 #[test]
@@ -156,16 +161,20 @@ fn the_single_views_keep_an_offset_that_moves_towards_their_level() {
     // Cluster 2: the view agrees with the first frame's level, so +0.4 goes back to 0.
     // Cluster 3: never lit in the view, keeps its offset.
     let mut delta = vec![0.0, 0.6, 0.4, 0.3];
-    views.vote(&mut delta, 0);
+    views.vote(&mut delta, 0, |_| false);
     assert_eq!(delta, [0.0, 0.6, 0.0, 0.3]);
+    // A cluster of the user's strokes keeps its offset whatever the views say.
+    let mut delta = vec![0.0, 0.6, 0.4, 0.3];
+    views.vote(&mut delta, 0, |k| k == 2);
+    assert_eq!(delta, [0.0, 0.6, 0.4, 0.3]);
     // Relative to the reference cluster: the same with every offset shifted.
     let mut shifted = vec![0.2, 0.8, 0.6, 0.5];
-    views.vote(&mut shifted, 0);
+    views.vote(&mut shifted, 0, |_| false);
     assert_eq!(shifted, [0.2, 0.8, 0.2, 0.5]);
     // An offset in the other direction, or past twice the view's level, goes back.
     for d1 in [-0.1, 1.05] {
         let mut delta = vec![0.0, d1, 0.0, 0.0];
-        views.vote(&mut delta, 0);
+        views.vote(&mut delta, 0, |_| false);
         assert_eq!(delta[1], 0.0, "{d1}");
     }
 }
@@ -173,6 +182,6 @@ fn the_single_views_keep_an_offset_that_moves_towards_their_level() {
 #[test]
 fn without_single_views_nothing_changes() {
     let mut delta = vec![0.0, 0.6, 0.4];
-    ViewLevels::default().vote(&mut delta, 0);
+    ViewLevels::default().vote(&mut delta, 0, |_| false);
     assert_eq!(delta, [0.0, 0.6, 0.4]);
 }

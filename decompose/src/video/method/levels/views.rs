@@ -16,7 +16,8 @@
 //! of `ln S_v − ln S`, which puts the single view on the video's scale as step 8 does). Both
 //! `δ` and `v` are taken relative to the largest cluster. A cluster keeps its offset `δ_k`
 //! when it moves the cluster towards the single view's level (`|δ_k − v_k| < |v_k|`), else
-//! keeps the first frame's level (`δ_k` = 0).
+//! keeps the first frame's level (`δ_k` = 0). The clusters of the user's strokes keep their
+//! offsets: the single views do not see the strokes.
 //!
 //! Leave-one-sequence-out on the 28 rendered tuning sequences chose this rule among {no vote,
 //! this rule, the median of `0`, `δ_k`, `v_k`} in 24 of 28 folds: cross-validated mean LMSE
@@ -71,12 +72,17 @@ impl ViewLevels {
     }
 
     /// The vote of the module docs on the offsets `delta` (one per cluster), relative to the
-    /// cluster `reference` (the largest). Clusters the single views never saw keep theirs.
-    pub fn vote(&self, delta: &mut [f64], reference: usize) {
+    /// cluster `reference` (the largest). Clusters the single views never saw keep theirs, and
+    /// so do the clusters for which `fixed` is true (those of the user's strokes, which the
+    /// single views do not see).
+    pub fn vote(&self, delta: &mut [f64], reference: usize, fixed: impl Fn(usize) -> bool) {
         let (Some(&d_ref), Some(v_ref)) = (delta.get(reference), self.level(reference)) else {
             return;
         };
         for (k, d) in delta.iter_mut().enumerate() {
+            if fixed(k) {
+                continue;
+            }
             let Some(v) = self.level(k) else { continue };
             let (dk, vk) = (*d - d_ref, v - v_ref);
             if (dk - vk).abs() >= vk.abs() {
