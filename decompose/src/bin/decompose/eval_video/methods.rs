@@ -7,7 +7,9 @@ use decompose::Image;
 use decompose::retinex::Strokes;
 use decompose::video::baseline::{PerFrameMethod, per_frame};
 use decompose::video::frames::FrameSource;
-use decompose::video::method::{Ablation, VideoFrame, VideoParams, decompose_video};
+use decompose::video::method::{
+    Ablation, BorderLevelParams, VideoFrame, VideoParams, decompose_video,
+};
 use decompose::video::propagate::PropagateParams;
 
 use crate::common::TempDir;
@@ -43,7 +45,8 @@ impl Runner {
 
 /// The runs asked for: the methods in a fixed order, then with `ablations` the three
 /// ablations of Fig. 3.11, the method without its per-frame blend (step 8), without its border
-/// levelling (the thesis' levels) and with the thesis' confidence test.
+/// levelling (the thesis' levels), without the single views' vote on those levels, with the
+/// thesis' confidence test and with the thesis' exact colour bins.
 pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
     let mut wanted: Vec<VideoMethod> = if methods.is_empty() || methods.contains(&VideoMethod::All)
     {
@@ -106,6 +109,16 @@ pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
                 "ours, first-frame levels (thesis)",
                 Box::new(VideoParams {
                     levels: None,
+                    ..Default::default()
+                }),
+            ),
+            Runner::Ours(
+                "ours, levels without the vote",
+                Box::new(VideoParams {
+                    levels: Some(BorderLevelParams {
+                        view_vote: false,
+                        ..Default::default()
+                    }),
                     ..Default::default()
                 }),
             ),
