@@ -7,8 +7,8 @@
 //! `cargo run --release -p decompose --example lightfield_cv -- .cache/rendered-lightfields/tune`
 //! (`--json FILE` also writes every score; `--only TEXT` runs the settings whose name contains
 //! TEXT, e.g. `--only "prior zhao"`; `--mu` runs the grid of the data term's `μ` instead,
-//! `--crease` that of the crease cue's step, `--data-term` that of the data term's `γ`, `μ`
-//! and `κ_c`).
+//! `--crease` that of the crease cue's step, `--crease-bound` that of the crease pairs' weight
+//! and shading bound, `--data-term` that of the data term's `γ`, `μ` and `κ_c`).
 //!
 //! The grid spans the choices that decide coherence and accuracy: the centre-view Retinex prior
 //! (`LightFieldParams::retinex_prior`), the sheared filter (`LightFieldParams::shear`), the
@@ -87,6 +87,43 @@ fn crease_grid() -> Vec<(String, LightFieldParams)> {
         .collect()
 }
 
+/// `--crease-bound`: the crease pairs' weight `ω_crease` and the bound `T_c` on the shading
+/// step they ask for (`CueParams::crease_weight`, `CueParams::crease_shading_step`), every other
+/// choice at the defaults before the ninth session (`LightFieldParams::previous_defaults`, γ 1,
+/// μ 1e-2). `ω_crease` 0.01 without a bound is those defaults.
+fn crease_bound_grid() -> Vec<(String, LightFieldParams)> {
+    let mut out = Vec::new();
+    for weight in [0.01f32, 0.03, 0.1, 0.3] {
+        for bound in [None, Some(0.4f32), Some(0.7), Some(1.1)] {
+            let mut p = LightFieldParams::previous_defaults();
+            p.cues.crease_weight = weight;
+            p.cues.crease_shading_step = bound;
+            out.push((format!("crease weight {weight} bound {bound:?}"), p));
+        }
+    }
+    out
+}
+
+/// `--crease-dark`: the crease bound with the per-ray data term at γ 2 (the default since the
+/// ninth session, first the dark-surface option) at two `μ`.
+fn crease_dark_grid() -> Vec<(String, LightFieldParams)> {
+    let mut out = Vec::new();
+    for mu in [1e-2, 3e-2] {
+        for (weight, bound) in [(0.01f32, None), (0.03, Some(0.7f32)), (0.1, Some(0.7))] {
+            let mut p = LightFieldParams::default();
+            p.data_term.gamma = 2.0;
+            p.solve.mu = mu;
+            p.cues.crease_weight = weight;
+            p.cues.crease_shading_step = bound;
+            out.push((
+                format!("gamma 2 mu {mu:.0e} crease weight {weight} bound {bound:?}"),
+                p,
+            ));
+        }
+    }
+    out
+}
+
 /// `--data-term`: the data term's `γ`, `μ` and `κ_c` (`method::data_term`), every other
 /// choice at its default. `γ` = 0 is the thesis' data term (then `κ_c` has no effect).
 fn data_term_grid() -> Vec<(String, LightFieldParams)> {
@@ -144,6 +181,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         mu_grid()
     } else if args.iter().any(|a| a == "--data-term") {
         data_term_grid()
+    } else if args.iter().any(|a| a == "--crease-dark") {
+        crease_dark_grid()
+    } else if args.iter().any(|a| a == "--crease-bound") {
+        crease_bound_grid()
     } else if args.iter().any(|a| a == "--crease") {
         crease_grid()
     } else {

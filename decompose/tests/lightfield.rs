@@ -112,8 +112,15 @@ fn lightfield_writes_every_view_under_its_input_name() {
             .contains("crease_step: Some(0.01)")
     );
     assert_eq!(forced_stats["run"]["crease_cue"], false);
-    // The per-ray data term by default: γ = 1, κ_c = 0.1, μ = 1e-2.
-    for needle in ["gamma: 1.0", "centre_weight: 0.1", "mu: 0.01"] {
+    // The per-ray data term by default: γ = 2, κ_c = 0.1, μ = 3e-2; crease pairs weighted 0.1,
+    // their shading step bounded by 0.7.
+    for needle in [
+        "gamma: 2.0",
+        "centre_weight: 0.1",
+        "mu: 0.03",
+        "crease_weight: 0.1",
+        "crease_shading_step: Some(0.7)",
+    ] {
         assert!(
             forced_stats["params"].as_str().unwrap().contains(needle),
             "{needle}"
@@ -152,7 +159,8 @@ fn lightfield_writes_every_view_under_its_input_name() {
     }
     assert_eq!(stats["run"]["unlit_ray_fraction"], 0.0);
     assert!(options.join("reflectance/input_Cam012.png").is_file());
-    // The thesis' data term as an ablation; it and the dark-surface option exclude each other.
+    // The thesis' data term as an ablation (at the thesis' μ); it and the old dark-surface flag
+    // (now the default, still accepted) exclude each other.
     let thesis = dir.path().join("thesis");
     let input = tiny();
     let run = |extra: &[&str]| {

@@ -252,6 +252,7 @@ pub fn decompose(
         white,
         disparity: disparity.zip(range).filter(|_| use_occlusion),
         crease_step,
+        log_intensity: &log_i,
         unlit: unlit.as_deref(),
         params,
     };

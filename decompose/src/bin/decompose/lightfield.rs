@@ -96,9 +96,8 @@ pub(crate) struct LightFieldInputArgs {
     /// pixel (3-4x slower filter; see the docs).
     #[arg(long)]
     pub(crate) shear: bool,
-    /// For scenes where a large dark surface (a black wall, a dark floor) still comes out grey:
-    /// dark rays tie each view's shading to the intensity even less than by default (the
-    /// per-ray data term at γ = 2 instead of 1; see the docs for when it helps).
+    /// No effect: the option for large dark surfaces (the per-ray data term at γ = 2) has been
+    /// the default since 2026-12-05; the flag is kept so that scripts using it keep working.
     #[arg(long, conflicts_with = "thesis_data_term")]
     pub(crate) dark_surfaces: bool,
     /// Ablation: the thesis' data term, one weight for every ray (by default dark rays weigh

@@ -42,8 +42,9 @@ pub(crate) enum LfMethod {
     RetinexPrior,
     /// Option: the 4D filter's angular differences along the disparity.
     Shear,
-    /// Option: the per-ray data term for large dark surfaces.
-    DarkSurfaces,
+    /// Ablation: the defaults before the ninth session (per-ray data term at γ 1, μ 1e-2; crease
+    /// pairs damped like occlusions, unbounded).
+    PreviousDefaults,
 }
 
 impl LfMethod {
@@ -60,7 +61,7 @@ impl LfMethod {
             LfMethod::ThesisDataTerm => "ours, thesis data term",
             LfMethod::RetinexPrior => "ours, centre Retinex prior",
             LfMethod::Shear => "ours, sheared filter",
-            LfMethod::DarkSurfaces => "ours, dark-surface option",
+            LfMethod::PreviousDefaults => "ours, previous defaults",
         }
     }
 }
@@ -188,7 +189,7 @@ pub(crate) fn run_eval_lightfield(a: EvalLightFieldArgs) -> Result<()> {
                     ..Default::default()
                 }),
                 LfMethod::ThesisDataTerm => ours(LightFieldParams::thesis_data_term()),
-                LfMethod::DarkSurfaces => ours(LightFieldParams::dark_surfaces()),
+                LfMethod::PreviousDefaults => ours(LightFieldParams::previous_defaults()),
                 LfMethod::RetinexPrior => ours(LightFieldParams {
                     level_prior: decompose::lightfield::method::LevelPrior::CentreRetinex,
                     ..Default::default()
