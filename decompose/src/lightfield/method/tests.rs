@@ -204,6 +204,45 @@ fn a_black_view_is_filled_from_the_others() {
     }
 }
 
+/// One view of two walls meeting in a vertical crease at `crease`, pixel colours `colour(x)`,
+/// and its disparity: a bar far in front (rows 0–3) sets the disparity range, so that the walls'
+/// slopes are no occlusions.
+fn two_walls(
+    (w, h): (usize, usize),
+    crease: usize,
+    colour: impl Fn(usize) -> [f32; 3],
+) -> (LightField, LightField) {
+    let mut rgb = Vec::with_capacity(w * h * 3);
+    let mut disp = Vec::with_capacity(w * h);
+    for p in 0..w * h {
+        let x = p % w;
+        rgb.extend(colour(x));
+        disp.push(if p / w < 4 {
+            2.0
+        } else {
+            0.02 * (x as f32 - crease as f32 + 0.5).abs()
+        });
+    }
+    (
+        LightField::from_vec(1, 1, w as u32, h as u32, 3, rgb).unwrap(),
+        LightField::from_vec(1, 1, w as u32, h as u32, 1, disp).unwrap(),
+    )
+}
+
+/// The mean of channel 0 of `layer` (one view of `w × h`) right of the crease over its mean
+/// left of it, 4 pixels away from the crease and the sides, below the bar of [`two_walls`].
+fn right_over_left(layer: &LightField, (w, h): (usize, usize), crease: usize) -> f32 {
+    let (data, c) = (layer.data(), layer.channels());
+    let mean = |xs: std::ops::Range<usize>| {
+        let v: Vec<f32> = (6..h)
+            .flat_map(|y| xs.clone().map(move |x| c * (y * w + x)))
+            .map(|i| data[i])
+            .collect();
+        v.iter().sum::<f32>() / v.len() as f32
+    };
+    mean(crease + 4..w - 4) / mean(4..crease - 4)
+}
+
 /// Two walls meeting in a vertical crease, one lit at full strength and one at 0.4, with a
 /// change of colour (of equal brightness) along the crease: the shading step stays in the
 /// shading with the crease pairs damped, mostly with the default crease weight, and goes into
@@ -211,40 +250,20 @@ fn a_black_view_is_filled_from_the_others() {
 /// colour change).
 #[test]
 fn the_shading_step_at_a_crease_stays_in_the_shading() {
-    let (w, h) = (40usize, 24usize);
+    let size = (40usize, 24usize);
     let crease = 20;
     // Unit-norm colours on either side; the disparity's slope turns at the crease.
     let (left, right) = ([0.6f32, 0.6, 0.529], [0.529f32, 0.6, 0.6]);
-    let mut rgb = Vec::with_capacity(w * h * 3);
-    let mut disp = Vec::with_capacity(w * h);
-    for p in 0..w * h {
-        let x = p % w;
-        let (c, s) = if x < crease {
-            (left, 1.0)
+    let (lf, disparity) = two_walls(size, crease, |x| {
+        if x < crease {
+            left
         } else {
-            (right, 0.4)
-        };
-        rgb.extend(c.map(|v| v * s));
-        let bar = p / w < 4;
-        disp.push(if bar {
-            2.0
-        } else {
-            0.02 * (x as f32 - crease as f32 + 0.5).abs()
-        });
-    }
-    let lf = LightField::from_vec(1, 1, w as u32, h as u32, 3, rgb).unwrap();
-    let disparity = LightField::from_vec(1, 1, w as u32, h as u32, 1, disp).unwrap();
+            right.map(|v| v * 0.4)
+        }
+    });
     let ratio = |p: &LightFieldParams| {
         let (d, _) = decompose(&lf, Some(&disparity), p, &mut |_| {}).unwrap();
-        let s = d.shading.data();
-        let mean = |xs: std::ops::Range<usize>| {
-            let v: Vec<f32> = (6..h)
-                .flat_map(|y| xs.clone().map(move |x| y * w + x))
-                .map(|p| s[p])
-                .collect();
-            v.iter().sum::<f32>() / v.len() as f32
-        };
-        mean(crease + 4..w - 4) / mean(4..crease - 4)
+        right_over_left(&d.shading, size, crease)
     };
     let with_cue = ratio(&quick());
     let mut nearly_free = quick();
@@ -277,36 +296,15 @@ fn the_shading_step_at_a_crease_stays_in_the_shading() {
 /// (`ω_crease` = 0.01, no `T_c`) the data term pulls both walls towards one reflectance.
 #[test]
 fn a_black_wall_beside_a_white_one_stays_black() {
-    let (w, h) = (40usize, 24usize);
+    let size = (40usize, 24usize);
     let crease = 20;
     let (white, black) = (0.8f32, 0.06f32);
-    let mut rgb = Vec::with_capacity(w * h * 3);
-    let mut disp = Vec::with_capacity(w * h);
-    for p in 0..w * h {
-        let x = p % w;
-        let v = if x < crease { white } else { black * 0.7 };
-        rgb.extend([v; 3]);
-        // A bar far in front (rows 0–3) sets the disparity range, as in the test above, so
-        // that the walls' slopes are no occlusions.
-        disp.push(if p / w < 4 {
-            2.0
-        } else {
-            0.02 * (x as f32 - crease as f32 + 0.5).abs()
-        });
-    }
-    let lf = LightField::from_vec(1, 1, w as u32, h as u32, 3, rgb).unwrap();
-    let disparity = LightField::from_vec(1, 1, w as u32, h as u32, 1, disp).unwrap();
+    let (lf, disparity) = two_walls(size, crease, |x| {
+        [if x < crease { white } else { black * 0.7 }; 3]
+    });
     let ratio = |p: &LightFieldParams| {
         let (d, _) = decompose(&lf, Some(&disparity), p, &mut |_| {}).unwrap();
-        let r = d.reflectance.data();
-        let mean = |xs: std::ops::Range<usize>| {
-            let v: Vec<f32> = (6..h)
-                .flat_map(|y| xs.clone().map(move |x| 3 * (y * w + x)))
-                .map(|i| r[i])
-                .collect();
-            v.iter().sum::<f32>() / v.len() as f32
-        };
-        mean(crease + 4..w - 4) / mean(4..crease - 4)
+        right_over_left(&d.reflectance, size, crease)
     };
     let bounded = ratio(&quick());
     let mut sixth = quick();
