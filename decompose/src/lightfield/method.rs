@@ -186,6 +186,7 @@ pub fn decompose(
     check(lf, disparity)?;
     params.reflectance_filter.validate()?;
     params.data_term.validate()?;
+    params.cues.validate()?;
     if let Some(f) = &params.input_filter {
         f.validate()?;
     }

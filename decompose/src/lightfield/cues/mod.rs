@@ -18,6 +18,7 @@
 //! the change across the pair keeps the cue where a white or black region meets another.
 
 use crate::color::linear_to_lab;
+use crate::error::{Error, Result};
 
 mod crease;
 
@@ -139,6 +140,29 @@ pub struct CueParams {
     /// rest of a larger step goes to the reflectance. Default `Some(0.7)` (a shading ratio of
     /// about 2), chosen with `ω_crease` among 0.4 / 0.7 / 1.1; `None`: no bound.
     pub crease_shading_step: Option<f32>,
+}
+
+impl CueParams {
+    /// Checks the crease pairs' weight (in (0, 1]) and shading bound (finite, non-negative).
+    pub fn validate(&self) -> Result<()> {
+        if !(self.crease_weight > 0.0 && self.crease_weight <= 1.0) {
+            return Err(Error::param(
+                "crease_weight",
+                self.crease_weight,
+                "must be in (0, 1]",
+            ));
+        }
+        if let Some(t) = self.crease_shading_step {
+            if !t.is_finite() || t < 0.0 {
+                return Err(Error::param(
+                    "crease_shading_step",
+                    t,
+                    "must be finite and non-negative",
+                ));
+            }
+        }
+        Ok(())
+    }
 }
 
 impl Default for CueParams {

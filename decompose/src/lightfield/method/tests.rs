@@ -384,7 +384,8 @@ fn a_large_dark_patch_keeps_its_dark_reflectance() {
 }
 
 /// Tying the views' dark rays to the centre view's solution makes the reflectance of a light
-/// field more coherent across views; a negative weight is refused.
+/// field more coherent across views; a negative weight, and crease parameters out of range, are
+/// refused.
 #[test]
 fn the_tie_to_the_centre_view_makes_the_views_agree() {
     let (lf, truth) = card_in_front_of_a_wall(5, 5, 48, 40, 11);
@@ -404,6 +405,21 @@ fn the_tie_to_the_centre_view_makes_the_views_agree() {
     let mut bad = LightFieldParams::default();
     bad.data_term.gamma = -1.0;
     assert!(decompose(&lf, Some(&truth.disparity), &bad, &mut |_| {}).is_err());
+    // So are a crease weight outside (0, 1] and a negative or infinite crease bound.
+    for (weight, bound) in [
+        (0.0, Some(0.7)),
+        (1.5, Some(0.7)),
+        (0.1, Some(-0.1)),
+        (0.1, Some(f32::INFINITY)),
+    ] {
+        let mut bad = LightFieldParams::default();
+        bad.cues.crease_weight = weight;
+        bad.cues.crease_shading_step = bound;
+        assert!(
+            decompose(&lf, Some(&truth.disparity), &bad, &mut |_| {}).is_err(),
+            "{weight} {bound:?}"
+        );
+    }
 }
 
 /// Without a precise disparity the default data term becomes the thesis' one (at the thesis'
