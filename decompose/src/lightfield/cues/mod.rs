@@ -152,14 +152,14 @@ impl CueParams {
                 "must be in (0, 1]",
             ));
         }
-        if let Some(t) = self.crease_shading_step {
-            if !t.is_finite() || t < 0.0 {
-                return Err(Error::param(
-                    "crease_shading_step",
-                    t,
-                    "must be finite and non-negative",
-                ));
-            }
+        if let Some(t) = self.crease_shading_step
+            && (!t.is_finite() || t < 0.0)
+        {
+            return Err(Error::param(
+                "crease_shading_step",
+                t,
+                "must be finite and non-negative",
+            ));
         }
         Ok(())
     }
