@@ -12,12 +12,12 @@
 //!
 //! Not in the thesis ([`LightFieldParams`] says why, with the figures): rays with no light are
 //! missing data (their pairs damped in step 3, their reflectance filled in by step 4's filter,
-//! `method::layers`); creases, where the disparity's slope turns, damped like occlusions
-//! ([`super::cues::crease_cue`]); step 3's data term weighted per ray by its brightness, with
-//! the dark rays tied to the centre view's solution ([`data_term`], γ = 1 by default); and
-//! three options, a disparity-sheared filter in step 4 ([`super::tvl1::tv_l1_sheared`]), Zhao
-//! et al.'s centre-view Retinex as step 3's level prior (`method::prior`), and a stronger
-//! per-ray data term for large dark surfaces ([`LightFieldParams::dark_surfaces`]).
+//! `method::layers`); creases, where the disparity's slope turns, weighted `ω_crease` and asking
+//! for at most a shading step `T_c` ([`super::cues::crease_cue`],
+//! [`super::cues::bound_crease_steps`]); step 3's data term weighted per ray by its brightness,
+//! with the dark rays tied to the centre view's solution ([`data_term`], γ = 2 by default); and
+//! two options, a disparity-sheared filter in step 4 ([`super::tvl1::tv_l1_sheared`]) and Zhao
+//! et al.'s centre-view Retinex as step 3's level prior (`method::prior`).
 //!
 //! One reflectance scale for the whole light field: its 99.5th percentile channel value over all
 //! views is 1 (per-view normalisation would itself be an angular incoherence).

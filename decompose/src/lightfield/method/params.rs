@@ -171,8 +171,8 @@ impl LightFieldParams {
     /// These parameters as the measurements say to use them without a precise disparity (no
     /// disparity file, or one estimated from the epipolar-plane images): no occlusion cue, and
     /// so no crease cue (an EPI estimate costs more than the cue gains), and no tie to the
-    /// centre view; the default per-ray data term becomes the thesis' one weight, while a data
-    /// term set otherwise (`dark_surfaces`) keeps its γ. On the 32 tuning scenes with an EPI
+    /// centre view; the default per-ray data term becomes the thesis' one weight at the thesis'
+    /// `μ`, while a data term set otherwise (as in `previous_defaults`) keeps its γ. On the 32 tuning scenes with an EPI
     /// estimate (`decompose eval-lightfield --estimate-disparity`): mean LMSE / incoherence
     /// 0.0479 / 0.0059 with the thesis' data term, against 0.0514 / 0.0074 with γ = 1 and no
     /// tie, and 0.0515 / 0.0071 with the tie through the estimate.

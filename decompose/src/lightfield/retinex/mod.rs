@@ -88,8 +88,9 @@ pub struct ViewSolveParams {
     /// [`solve_view_with_target`], if any). Default 1e-2, the thesis' data term's, chosen with
     /// `θ_a` by leave-one-scene-out cross-validation on the rendered tuning scenes among
     /// 1e-3 / 1e-2 / 3e-2: mean LMSE 0.0488 / 0.0460 / 0.0485 at θ_a = 0.005 (see
-    /// `CueParams::theta_a`). The light-field method's default per-ray data term keeps it; its
-    /// dark-surface option uses 3e-2 (`lightfield::method::DATA_MU`).
+    /// `CueParams::theta_a`). The thesis' data term keeps it (the light-field ablation and the
+    /// video's single views); the light-field method's default per-ray data term uses 3e-2
+    /// since the ninth session (`lightfield::method::DATA_MU`).
     pub mu: f64,
     /// Relative residual `‖b − As‖ / ‖b‖` at which conjugate gradients stop. Default 1e-4:
     /// against 1e-5 it saves 0.4–0.6 s of the 9.7 s of `bench --lightfield 512`, and the mean
