@@ -8,7 +8,8 @@
 //! (`--json FILE` also writes every score; `--only TEXT` runs the settings whose name contains
 //! TEXT, e.g. `--only "prior zhao"`; `--mu` runs the grid of the data term's `μ` instead,
 //! `--crease` that of the crease cue's step, `--crease-bound` that of the crease pairs' weight
-//! and shading bound, `--data-term` that of the data term's `γ`, `μ` and `κ_c`).
+//! and shading bound, `--crease-fine` a finer one around γ 2, `--theta` that of the albedo cue's `θ_a`, `--beta` that of the
+//! reflectance filter's `β`, `--data-term` that of the data term's `γ`, `μ` and `κ_c`).
 //!
 //! The grid spans the choices that decide coherence and accuracy: the centre-view Retinex prior
 //! (`LightFieldParams::retinex_prior`), the sheared filter (`LightFieldParams::shear`), the
@@ -124,6 +125,63 @@ fn crease_dark_grid() -> Vec<(String, LightFieldParams)> {
     out
 }
 
+/// `--crease-fine`: around the defaults of `--crease-dark` (γ 2): `μ` ∈ {1e-2, 2e-2, 3e-2} ×
+/// crease pairs (`ω_crease`, `T_c`) between "weak and unbounded" and "strong and bounded".
+fn crease_fine_grid() -> Vec<(String, LightFieldParams)> {
+    let mut out = Vec::new();
+    for mu in [1e-2, 2e-2, 3e-2] {
+        for (weight, bound) in [
+            (0.01f32, None),
+            (0.01, Some(0.7f32)),
+            (0.01, Some(1.1)),
+            (0.03, None),
+            (0.03, Some(0.7)),
+            (0.03, Some(1.1)),
+            (0.1, Some(0.7)),
+            (0.1, Some(1.1)),
+        ] {
+            let mut p = LightFieldParams::default();
+            p.data_term.gamma = 2.0;
+            p.solve.mu = mu;
+            p.cues.crease_weight = weight;
+            p.cues.crease_shading_step = bound;
+            out.push((
+                format!("gamma 2 mu {mu:.0e} crease weight {weight} bound {bound:?}"),
+                p,
+            ));
+        }
+    }
+    out
+}
+
+/// `--theta`: the albedo cue's colour-line angle `θ_a` (eq. 4.10) around its default 0.005,
+/// every other choice at its default: whether texture that leaks into the shading (dots on a
+/// panel, lines of text) is a matter of the threshold.
+fn theta_grid() -> Vec<(String, LightFieldParams)> {
+    [0.0025f32, 0.005, 0.01, 0.02]
+        .into_iter()
+        .map(|theta_a| {
+            let mut p = LightFieldParams::default();
+            p.cues.theta_a = theta_a;
+            (format!("theta_a {theta_a}"), p)
+        })
+        .collect()
+}
+
+/// `--beta`: the reflectance filter's `β` (eq. 4.3) around its default 1, every other choice at
+/// its default: a smaller `β` makes larger structures coherent, a larger one leaves finer
+/// texture (lines of text, dots) in the reflectance.
+fn beta_grid() -> Vec<(String, LightFieldParams)> {
+    [0.5f32, 1.0, 2.0, 4.0]
+        .into_iter()
+        .map(|beta| {
+            let mut p = LightFieldParams::default();
+            p.reflectance_filter.beta = beta;
+            (format!("beta {beta}"), p)
+        })
+        .collect()
+}
+
 /// `--data-term`: the data term's `γ`, `μ` and `κ_c` (`method::data_term`), every other
 /// choice at its default. `γ` = 0 is the thesis' data term (then `κ_c` has no effect).
 fn data_term_grid() -> Vec<(String, LightFieldParams)> {
@@ -181,6 +239,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         mu_grid()
     } else if args.iter().any(|a| a == "--data-term") {
         data_term_grid()
+    } else if args.iter().any(|a| a == "--beta") {
+        beta_grid()
+    } else if args.iter().any(|a| a == "--theta") {
+        theta_grid()
+    } else if args.iter().any(|a| a == "--crease-fine") {
+        crease_fine_grid()
     } else if args.iter().any(|a| a == "--crease-dark") {
         crease_dark_grid()
     } else if args.iter().any(|a| a == "--crease-bound") {
