@@ -168,9 +168,9 @@ fn theta_grid() -> Vec<(String, LightFieldParams)> {
         .collect()
 }
 
-/// `--beta`: the reflectance filter's `β` (eq. 4.3) around its default 1, every other choice at
-/// its default: a smaller `β` makes larger structures coherent, a larger one leaves finer
-/// texture (lines of text, dots) in the reflectance.
+/// `--beta`: the reflectance filter's `β` (eq. 4.3) around 1 and 2 (the default since the tenth
+/// session), every other choice at its default: a smaller `β` makes larger structures coherent,
+/// a larger one leaves finer texture (lines of text, dots) in the reflectance.
 fn beta_grid() -> Vec<(String, LightFieldParams)> {
     [0.5f32, 1.0, 2.0, 4.0]
         .into_iter()

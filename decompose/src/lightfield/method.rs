@@ -38,7 +38,8 @@ pub use baselines::{per_view, per_view_retinex};
 pub use data_term::DataTermParams;
 pub use params::{
     CENTRE_WEIGHT, DATA_GAMMA, DATA_MU, DEFAULT_DATA_GAMMA, FILTER_ITERATIONS, LevelPrior,
-    LightFieldParams, REFLECTANCE_BETA, REFLECTANCE_ITERATIONS, REFLECTANCE_RHO,
+    LightFieldParams, PREVIOUS_REFLECTANCE_BETA, REFLECTANCE_BETA, REFLECTANCE_ITERATIONS,
+    REFLECTANCE_RHO,
 };
 
 /// The decomposition of every view: `reflectance` (3 channels) × `shading` (1 channel) = `L`.

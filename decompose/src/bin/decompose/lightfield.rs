@@ -65,9 +65,10 @@ pub(crate) struct LightFieldInputArgs {
     #[arg(long)]
     pub(crate) disparity: Option<PathBuf>,
     /// β of the 4D TV-L1 filter of the reflectance (eq. 4.3): reflectance structures smaller
-    /// than about 2/β pixels are made coherent across views.
-    #[arg(long, default_value_t = decompose::lightfield::method::REFLECTANCE_BETA)]
-    pub(crate) beta: f32,
+    /// than about 2/β pixels are made coherent across views [default: 2 with a disparity file,
+    /// 1 without]
+    #[arg(long)]
+    pub(crate) beta: Option<f32>,
     /// Also filter the input before the cues (the thesis' step 1) with this β (thesis: 0.05).
     #[arg(long)]
     pub(crate) input_beta: Option<f32>,
@@ -152,7 +153,6 @@ impl LightFieldInputArgs {
         } else {
             LightFieldParams::default()
         };
-        p.reflectance_filter.beta = self.beta;
         p.input_filter = self.input_beta.map(|beta| TvL1Params {
             beta,
             iterations: decompose::lightfield::method::FILTER_ITERATIONS,
@@ -161,6 +161,9 @@ impl LightFieldInputArgs {
         p.filter_4d = !self.no_4d_filter;
         if estimated {
             p = p.without_precise_disparity();
+        }
+        if let Some(beta) = self.beta {
+            p.reflectance_filter.beta = beta;
         }
         p.occlusion_cue &= !self.no_occlusion_cue;
         if self.no_crease_cue {

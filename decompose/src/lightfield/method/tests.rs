@@ -423,11 +423,32 @@ fn the_tie_to_the_centre_view_makes_the_views_agree() {
 }
 
 /// Without a precise disparity the default data term becomes the thesis' one (at the thesis'
-/// `μ`) and the occlusion cue goes; a data term set otherwise keeps its γ but loses the tie.
+/// `μ`), the occlusion cue goes and the reflectance filter keeps the β it was measured with; a
+/// data term or β set otherwise keeps its value, the data term losing only the tie.
 #[test]
 fn without_a_precise_disparity_the_data_term_is_the_thesis_one() {
     let p = LightFieldParams::default().without_precise_disparity();
     assert!(!p.occlusion_cue);
+    assert_eq!(p.reflectance_filter.beta, PREVIOUS_REFLECTANCE_BETA);
+    assert_eq!(
+        LightFieldParams::default().reflectance_filter.beta,
+        REFLECTANCE_BETA
+    );
+    assert_ne!(REFLECTANCE_BETA, PREVIOUS_REFLECTANCE_BETA);
+    let mut chosen = LightFieldParams::default();
+    chosen.reflectance_filter.beta = 3.0;
+    assert_eq!(
+        chosen.without_precise_disparity().reflectance_filter.beta,
+        3.0
+    );
+    // The video's single views keep the β they were tuned with.
+    assert_eq!(
+        crate::video::method::FusionParams::default()
+            .view
+            .reflectance_filter
+            .beta,
+        PREVIOUS_REFLECTANCE_BETA
+    );
     assert_eq!(p.data_term, DataTermParams::THESIS);
     assert_eq!(p.solve.mu, LightFieldParams::thesis_data_term().solve.mu);
     let previous = LightFieldParams::previous_defaults();

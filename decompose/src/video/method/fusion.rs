@@ -32,6 +32,7 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::image::Image;
+use crate::lightfield::method::PREVIOUS_REFLECTANCE_BETA;
 use crate::lightfield::{LightField, LightFieldParams};
 use crate::video::flow::Flow;
 
@@ -46,9 +47,10 @@ pub struct FusionParams {
     /// Largest `|ln Ī_t(p) − ln Ī_{t−1}(p + b(p))|` for the average to carry a pixel. Default 0.1.
     pub gate: f32,
     /// The single-image decomposition: the light-field method's parameters (one view, no
-    /// disparity). Default [`LightFieldParams::thesis_data_term`]: the light field's defaults
-    /// with the thesis' data term, the setting step 8 was tuned and tested with (the light
-    /// field's per-ray data term came later and was not chosen on videos).
+    /// disparity). Default [`LightFieldParams::thesis_data_term`] with the reflectance filter at
+    /// β = [`PREVIOUS_REFLECTANCE_BETA`]: the light field's defaults with the thesis' data term,
+    /// the setting step 8 was tuned and tested with (the light field's per-ray data term and its
+    /// β = 2 came later and were not chosen on videos).
     pub view: LightFieldParams,
 }
 
@@ -58,7 +60,11 @@ impl Default for FusionParams {
             beta: 0.5,
             alpha: 0.1,
             gate: 0.1,
-            view: LightFieldParams::thesis_data_term(),
+            view: {
+                let mut view = LightFieldParams::thesis_data_term();
+                view.reflectance_filter.beta = PREVIOUS_REFLECTANCE_BETA;
+                view
+            },
         }
     }
 }
