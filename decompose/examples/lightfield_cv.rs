@@ -8,8 +8,9 @@
 //! (`--json FILE` also writes every score; `--only TEXT` runs the settings whose name contains
 //! TEXT, e.g. `--only "prior zhao"`; `--mu` runs the grid of the data term's `μ` instead,
 //! `--crease` that of the crease cue's step, `--crease-bound` that of the crease pairs' weight
-//! and shading bound, `--crease-fine` a finer one around γ 2, `--theta` that of the albedo cue's `θ_a`, `--beta` that of the
-//! reflectance filter's `β`, `--data-term` that of the data term's `γ`, `μ` and `κ_c`).
+//! and shading bound, `--crease-fine` a finer one around γ 2, `--theta` that of the albedo
+//! cue's `θ_a`, `--beta` that of the reflectance filter's `β`, `--data-term` that of the data
+//! term's `γ`, `μ` and `κ_c`).
 //!
 //! The grid spans the choices that decide coherence and accuracy: the centre-view Retinex prior
 //! (`LightFieldParams::retinex_prior`), the sheared filter (`LightFieldParams::shear`), the
@@ -20,7 +21,9 @@ use std::path::{Path, PathBuf};
 
 use decompose::lightfield::eval::{LightFieldScores, evaluate};
 use decompose::lightfield::io::load_truth;
-use decompose::lightfield::method::{DataTermParams, LevelPrior};
+use decompose::lightfield::method::{
+    DATA_MU, DataTermParams, LevelPrior, PREVIOUS_REFLECTANCE_BETA,
+};
 use decompose::lightfield::propagate::disparity_to_every_view;
 use decompose::lightfield::{LightFieldParams, decompose as decompose_lf};
 
@@ -105,63 +108,59 @@ fn crease_bound_grid() -> Vec<(String, LightFieldParams)> {
     out
 }
 
+/// The defaults of the ninth session (reflectance filter β 1), with the data term at γ 2 and
+/// `μ`, and the crease pairs at (`ω_crease`, `T_c`): the base of `--crease-dark`,
+/// `--crease-fine` and `--theta`, which were run before β became 2.
+fn ninth_session(mu: f64, weight: f32, bound: Option<f32>) -> (String, LightFieldParams) {
+    let mut p = LightFieldParams::default();
+    p.reflectance_filter.beta = PREVIOUS_REFLECTANCE_BETA;
+    p.data_term.gamma = 2.0;
+    p.solve.mu = mu;
+    p.cues.crease_weight = weight;
+    p.cues.crease_shading_step = bound;
+    (
+        format!("gamma 2 mu {mu:.0e} crease weight {weight} bound {bound:?}"),
+        p,
+    )
+}
+
 /// `--crease-dark`: the crease bound with the per-ray data term at γ 2 (the default since the
 /// ninth session, first the dark-surface option) at two `μ`.
 fn crease_dark_grid() -> Vec<(String, LightFieldParams)> {
-    let mut out = Vec::new();
-    for mu in [1e-2, 3e-2] {
-        for (weight, bound) in [(0.01f32, None), (0.03, Some(0.7f32)), (0.1, Some(0.7))] {
-            let mut p = LightFieldParams::default();
-            p.data_term.gamma = 2.0;
-            p.solve.mu = mu;
-            p.cues.crease_weight = weight;
-            p.cues.crease_shading_step = bound;
-            out.push((
-                format!("gamma 2 mu {mu:.0e} crease weight {weight} bound {bound:?}"),
-                p,
-            ));
-        }
-    }
-    out
+    let pairs = [(0.01f32, None), (0.03, Some(0.7f32)), (0.1, Some(0.7))];
+    [1e-2, 3e-2]
+        .into_iter()
+        .flat_map(|mu| pairs.map(|(weight, bound)| ninth_session(mu, weight, bound)))
+        .collect()
 }
 
 /// `--crease-fine`: around the defaults of `--crease-dark` (γ 2): `μ` ∈ {1e-2, 2e-2, 3e-2} ×
 /// crease pairs (`ω_crease`, `T_c`) between "weak and unbounded" and "strong and bounded".
 fn crease_fine_grid() -> Vec<(String, LightFieldParams)> {
-    let mut out = Vec::new();
-    for mu in [1e-2, 2e-2, 3e-2] {
-        for (weight, bound) in [
-            (0.01f32, None),
-            (0.01, Some(0.7f32)),
-            (0.01, Some(1.1)),
-            (0.03, None),
-            (0.03, Some(0.7)),
-            (0.03, Some(1.1)),
-            (0.1, Some(0.7)),
-            (0.1, Some(1.1)),
-        ] {
-            let mut p = LightFieldParams::default();
-            p.data_term.gamma = 2.0;
-            p.solve.mu = mu;
-            p.cues.crease_weight = weight;
-            p.cues.crease_shading_step = bound;
-            out.push((
-                format!("gamma 2 mu {mu:.0e} crease weight {weight} bound {bound:?}"),
-                p,
-            ));
-        }
-    }
-    out
+    let pairs = [
+        (0.01f32, None),
+        (0.01, Some(0.7f32)),
+        (0.01, Some(1.1)),
+        (0.03, None),
+        (0.03, Some(0.7)),
+        (0.03, Some(1.1)),
+        (0.1, Some(0.7)),
+        (0.1, Some(1.1)),
+    ];
+    [1e-2, 2e-2, 3e-2]
+        .into_iter()
+        .flat_map(|mu| pairs.map(|(weight, bound)| ninth_session(mu, weight, bound)))
+        .collect()
 }
 
 /// `--theta`: the albedo cue's colour-line angle `θ_a` (eq. 4.10) around its default 0.005,
-/// every other choice at its default: whether texture that leaks into the shading (dots on a
-/// panel, lines of text) is a matter of the threshold.
+/// every other choice at the ninth session's defaults: whether texture that leaks into the
+/// shading (dots on a panel, lines of text) is a matter of the threshold.
 fn theta_grid() -> Vec<(String, LightFieldParams)> {
     [0.0025f32, 0.005, 0.01, 0.02]
         .into_iter()
         .map(|theta_a| {
-            let mut p = LightFieldParams::default();
+            let (_, mut p) = ninth_session(DATA_MU, 0.1, Some(0.7));
             p.cues.theta_a = theta_a;
             (format!("theta_a {theta_a}"), p)
         })
