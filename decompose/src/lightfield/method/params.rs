@@ -185,10 +185,10 @@ impl LightFieldParams {
     /// so no crease cue (an EPI estimate costs more than the cue gains), and no tie to the
     /// centre view; the default per-ray data term becomes the thesis' one weight at the thesis'
     /// `μ`, while a data term set otherwise (as in `previous_defaults`) keeps its γ; the default
-    /// reflectance filter's β becomes [`PREVIOUS_REFLECTANCE_BETA`]. On the 32 tuning scenes with an EPI
-    /// estimate (`decompose eval-lightfield --estimate-disparity`): mean LMSE / incoherence
-    /// 0.0479 / 0.0059 with the thesis' data term, against 0.0514 / 0.0074 with γ = 1 and no
-    /// tie, and 0.0515 / 0.0071 with the tie through the estimate.
+    /// reflectance filter's β becomes [`PREVIOUS_REFLECTANCE_BETA`]. On the 32 tuning scenes
+    /// with an EPI estimate (`decompose eval-lightfield --estimate-disparity`): mean LMSE /
+    /// incoherence 0.0479 / 0.0059 with the thesis' data term, against 0.0514 / 0.0074 with
+    /// γ = 1 and no tie, and 0.0515 / 0.0071 with the tie through the estimate.
     pub fn without_precise_disparity(mut self) -> Self {
         self.occlusion_cue = false;
         // β = 2 was chosen with a precise disparity only; without one the filter keeps the β
