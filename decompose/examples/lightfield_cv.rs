@@ -8,9 +8,11 @@
 //! (`--json FILE` also writes every score; `--only TEXT` runs the settings whose name contains
 //! TEXT, e.g. `--only "prior zhao"`; `--mu` runs the grid of the data term's `μ` instead,
 //! `--crease` that of the crease cue's step, `--crease-bound` that of the crease pairs' weight
-//! and shading bound, `--crease-fine` a finer one around γ 2, `--theta` that of the albedo
+//! and shading bound, `--crease-fine` a finer one around γ 2, `--crease-current` the pairs' weight and
+//! bound at the current defaults, `--theta` that of the albedo
 //! cue's `θ_a`, `--beta` that of the reflectance filter's `β`, `--data-term` that of the data
-//! term's `γ`, `μ` and `κ_c`).
+//! term's `γ`, `μ` and `κ_c`, `--toward-previous` the default with each choice that
+//! separates it from the defaults before the ninth session set back on its own).
 //!
 //! The grid spans the choices that decide coherence and accuracy: the centre-view Retinex prior
 //! (`LightFieldParams::retinex_prior`), the sheared filter (`LightFieldParams::shear`), the
@@ -153,6 +155,22 @@ fn crease_fine_grid() -> Vec<(String, LightFieldParams)> {
         .collect()
 }
 
+/// `--crease-current`: the crease pairs' weight `ω_crease` and bound `T_c` around the current
+/// defaults (β 2, γ 2, `μ` 3e-2): with β 2 the weaker pairs of the defaults before the ninth
+/// session may no longer cost the black walls.
+fn crease_current_grid() -> Vec<(String, LightFieldParams)> {
+    let mut out = Vec::new();
+    for weight in [0.01f32, 0.03, 0.1] {
+        for bound in [None, Some(0.7f32), Some(1.1)] {
+            let mut p = LightFieldParams::default();
+            p.cues.crease_weight = weight;
+            p.cues.crease_shading_step = bound;
+            out.push((format!("crease weight {weight} bound {bound:?}"), p));
+        }
+    }
+    out
+}
+
 /// `--theta`: the albedo cue's colour-line angle `θ_a` (eq. 4.10) around its default 0.005,
 /// every other choice at the ninth session's defaults: whether texture that leaks into the
 /// shading (dots on a panel, lines of text) is a matter of the threshold.
@@ -179,6 +197,37 @@ fn beta_grid() -> Vec<(String, LightFieldParams)> {
             (format!("beta {beta}"), p)
         })
         .collect()
+}
+
+/// `--toward-previous`: the default, the defaults before the ninth session, and the default with
+/// each of the five choices that separate them set back on its own (the reflectance filter's
+/// `β`, the data term's `γ`, its `μ`, the crease pairs' weight, their bound): which of them costs
+/// the accuracy that the earlier defaults have on ordinary scenes.
+fn toward_previous_grid() -> Vec<(String, LightFieldParams)> {
+    let previous = LightFieldParams::previous_defaults();
+    let one_back: [(&str, fn(&mut LightFieldParams, &LightFieldParams)); 5] = [
+        ("beta", |p, q| {
+            p.reflectance_filter.beta = q.reflectance_filter.beta
+        }),
+        ("gamma", |p, q| p.data_term.gamma = q.data_term.gamma),
+        ("mu", |p, q| p.solve.mu = q.solve.mu),
+        ("crease weight", |p, q| {
+            p.cues.crease_weight = q.cues.crease_weight
+        }),
+        ("crease bound", |p, q| {
+            p.cues.crease_shading_step = q.cues.crease_shading_step
+        }),
+    ];
+    let mut out = vec![
+        ("default".to_owned(), LightFieldParams::default()),
+        ("previous defaults".to_owned(), previous.clone()),
+    ];
+    for (name, set_back) in one_back {
+        let mut p = LightFieldParams::default();
+        set_back(&mut p, &previous);
+        out.push((format!("default, previous {name}"), p));
+    }
+    out
 }
 
 /// `--data-term`: the data term's `γ`, `μ` and `κ_c` (`method::data_term`), every other
@@ -234,7 +283,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .and_then(|i| args.get(i + 1))
         .cloned()
         .unwrap_or_default();
-    let grid = if args.iter().any(|a| a == "--mu") {
+    let grid = if args.iter().any(|a| a == "--toward-previous") {
+        toward_previous_grid()
+    } else if args.iter().any(|a| a == "--mu") {
         mu_grid()
     } else if args.iter().any(|a| a == "--data-term") {
         data_term_grid()
@@ -242,6 +293,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         beta_grid()
     } else if args.iter().any(|a| a == "--theta") {
         theta_grid()
+    } else if args.iter().any(|a| a == "--crease-current") {
+        crease_current_grid()
     } else if args.iter().any(|a| a == "--crease-fine") {
         crease_fine_grid()
     } else if args.iter().any(|a| a == "--crease-dark") {

@@ -112,14 +112,14 @@ fn lightfield_writes_every_view_under_its_input_name() {
             .contains("crease_step: Some(0.01)")
     );
     assert_eq!(forced_stats["run"]["crease_cue"], false);
-    // The per-ray data term by default: γ = 2, κ_c = 0.1, μ = 3e-2; crease pairs weighted 0.1,
-    // their shading step bounded by 0.7.
+    // The per-ray data term by default: γ = 2, κ_c = 0.1, μ = 3e-2; crease pairs weighted 0.01,
+    // their shading step bounded by 1.1.
     for needle in [
         "gamma: 2.0",
         "centre_weight: 0.1",
         "mu: 0.03",
-        "crease_weight: 0.1",
-        "crease_shading_step: Some(0.7)",
+        "crease_weight: 0.01",
+        "crease_shading_step: Some(1.1)",
     ] {
         assert!(
             forced_stats["params"].as_str().unwrap().contains(needle),

@@ -81,11 +81,13 @@ pub fn disparity_sees_planes(width: usize, height: usize, disparity: &[f32], ste
 /// `1 − T_c/|Δi|`, so the shading takes `±T_c` and the rest of the step goes to the reflectance.
 ///
 /// Why: across a crease between two lit faces the shading changes by the ratio of their
-/// cosines to the light, which is rarely more than 2 (`ln 2 ≈ 0.7`); a larger achromatic step,
-/// as where a white wall meets a black one, is mostly reflectance. Without the bound the pair
-/// asks for the whole step in the shading, and a region that creases enclose gets its level
-/// from the data term alone, which pulls it towards a uniform reflectance: the black wall
-/// comes out grey (docs/intrinsic-lightfields.md, ninth session).
+/// cosines to the light, which is seldom more than about 3 (`T_c` = 1.1 by default; the ninth
+/// session's 0.7, a ratio of 2, also cut real steps, such as a ceiling at a grazing light); a
+/// larger achromatic step, as where a white wall meets a black one, is mostly reflectance.
+/// Without the bound the pair asks for the whole step in the shading, and a region that creases
+/// enclose gets its level from the data term alone, which pulls it towards a uniform
+/// reflectance: the black wall comes out grey (docs/intrinsic-lightfields.md, ninth and
+/// eleventh sessions).
 pub fn bound_crease_steps(
     albedo: &mut PairWeights,
     crease: &PairWeights,

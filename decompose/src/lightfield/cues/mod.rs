@@ -128,17 +128,21 @@ pub struct CueParams {
     /// 0.0370 / 0.0366, incoherence 0.0046 / 0.0024 / 0.0028 / 0.0046;
     /// docs/intrinsic-lightfields.md).
     pub crease_step: Option<f32>,
-    /// `ω_crease`: weight of the crease pairs ([`crease_cue`]). Default 0.1 since the ninth
-    /// session (before: the occlusion's 0.01), chosen with `T_c` and the data term's γ 2 by
-    /// leave-one-scene-out cross-validation on the goal count over 24 rendered tuning
-    /// scenes, and confirmed on 8 fresh ones (`lightfield::method::DEFAULT_DATA_GAMMA`). With the
-    /// old data term (γ 1) the bound alone gains nothing cross-validated (0.0304 / 0.0034 against
-    /// 0.0299 / 0.0032); with γ 2 it is what mends a black wall beside a white one
-    /// (docs/intrinsic-lightfields.md).
+    /// `ω_crease`: weight of the crease pairs ([`crease_cue`]). Default 0.01 (the occlusion's
+    /// `ω_occ`), with `T_c` = 1.1, since the eleventh session. The ninth session had chosen 0.1
+    /// with `T_c` 0.7 (with the data term's γ 2 it mended black walls beside white ones), but
+    /// that pair also pushed real shading steps at the room's creases (a ceiling at a grazing
+    /// light) into the reflectance. Chosen again with the reflectance filter's β 2 over
+    /// `ω_crease` ∈ {0.01, 0.03, 0.1} × `T_c` ∈ {none, 0.7, 1.1} on 73 rendered tuning scenes
+    /// (`examples/lightfield_cv.rs --crease-current`): leave-one-scene-out on LMSE + incoherence
+    /// picks (0.01, 1.1) in every fold, cross-validated 0.0231 / 0.0044 and the goal
+    /// met on 71 of 73 held out, against 0.0270 / 0.0050 and 71 for (0.1, 0.7). On 8 fresh
+    /// scenes: 0.0172 / 0.0065 against 0.0216 / 0.0070, goal 8 of 8 for both
+    /// (docs/intrinsic-lightfields.md, eleventh session).
     pub crease_weight: f32,
     /// `T_c`: the largest log-shading step a crease pair asks for ([`bound_crease_steps`]); the
-    /// rest of a larger step goes to the reflectance. Default `Some(0.7)` (a shading ratio of
-    /// about 2), chosen with `ω_crease` among 0.4 / 0.7 / 1.1; `None`: no bound.
+    /// rest of a larger step goes to the reflectance. Default `Some(1.1)` (a shading ratio of
+    /// about 3; see `crease_weight`); `None`: no bound, as before the ninth session.
     pub crease_shading_step: Option<f32>,
 }
 
@@ -175,8 +179,8 @@ impl Default for CueParams {
             omega_occ: 0.01,
             depth_step: 0.02,
             crease_step: Some(0.01),
-            crease_weight: 0.1,
-            crease_shading_step: Some(0.7),
+            crease_weight: 0.01,
+            crease_shading_step: Some(1.1),
         }
     }
 }

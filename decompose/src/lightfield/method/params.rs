@@ -88,7 +88,8 @@ pub const REFLECTANCE_ITERATIONS: usize = 30;
 
 /// γ of the default data term (`method::data_term`): [`DATA_GAMMA`] (2) since the ninth session,
 /// with `μ` = [`DATA_MU`] and κ_c = [`CENTRE_WEIGHT`], together with the bounded crease pairs
-/// (`CueParams::crease_weight` 0.1, `CueParams::crease_shading_step` 0.7). Chosen on 24 rendered
+/// (then `CueParams::crease_weight` 0.1, `CueParams::crease_shading_step` 0.7; since the
+/// eleventh session 0.01 and 1.1, see `CueParams::crease_weight`). Chosen on 24 rendered
 /// tuning scenes by leave-one-scene-out cross-validation on the goal count (the per-view
 /// methods beaten on both scores; ties by LMSE + incoherence) among the previous default
 /// (γ 1, μ 1e-2, creases weighted 0.01 and unbounded), the crease grid
