@@ -225,7 +225,10 @@ fn toward_previous_grid() -> Vec<(String, LightFieldParams)> {
     for (name, set_back) in one_back {
         let mut p = LightFieldParams::default();
         set_back(&mut p, &previous);
-        out.push((format!("default, previous {name}"), p));
+        // A choice the default already shares with the previous defaults adds nothing.
+        if p != LightFieldParams::default() {
+            out.push((format!("default, previous {name}"), p));
+        }
     }
     out
 }
