@@ -204,8 +204,10 @@ fn beta_grid() -> Vec<(String, LightFieldParams)> {
 /// `β`, the data term's `γ`, its `μ`, the crease pairs' weight, their bound): which of them costs
 /// the accuracy that the earlier defaults have on ordinary scenes.
 fn toward_previous_grid() -> Vec<(String, LightFieldParams)> {
+    /// Sets one choice of the first parameters back to the second's.
+    type SetBack = fn(&mut LightFieldParams, &LightFieldParams);
     let previous = LightFieldParams::previous_defaults();
-    let one_back: [(&str, fn(&mut LightFieldParams, &LightFieldParams)); 5] = [
+    let one_back: [(&str, SetBack); 5] = [
         ("beta", |p, q| {
             p.reflectance_filter.beta = q.reflectance_filter.beta
         }),
