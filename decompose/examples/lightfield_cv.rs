@@ -8,11 +8,11 @@
 //! (`--json FILE` also writes every score; `--only TEXT` runs the settings whose name contains
 //! TEXT, e.g. `--only "prior zhao"`; `--mu` runs the grid of the data term's `μ` instead,
 //! `--crease` that of the crease cue's step, `--crease-bound` that of the crease pairs' weight
-//! and shading bound, `--crease-fine` a finer one around γ 2, `--crease-current` the pairs' weight and
-//! bound at the current defaults, `--theta` that of the albedo
-//! cue's `θ_a`, `--beta` that of the reflectance filter's `β`, `--data-term` that of the data
-//! term's `γ`, `μ` and `κ_c`, `--toward-previous` the default with each choice that
-//! separates it from the defaults before the ninth session set back on its own).
+//! and shading bound, `--crease-fine` a finer one around γ 2, `--crease-current` the pairs'
+//! weight and bound at the current defaults, `--theta` that of the albedo cue's `θ_a`, `--beta`
+//! that of the reflectance filter's `β`, `--data-term` that of the data term's `γ`, `μ` and
+//! `κ_c`, `--toward-previous` the default with each choice that separates it from the defaults
+//! before the ninth session set back on its own).
 //!
 //! The grid spans the choices that decide coherence and accuracy: the centre-view Retinex prior
 //! (`LightFieldParams::retinex_prior`), the sheared filter (`LightFieldParams::shear`), the
@@ -155,9 +155,8 @@ fn crease_fine_grid() -> Vec<(String, LightFieldParams)> {
         .collect()
 }
 
-/// `--crease-current`: the crease pairs' weight `ω_crease` and bound `T_c` around the current
-/// defaults (β 2, γ 2, `μ` 3e-2): with β 2 the weaker pairs of the defaults before the ninth
-/// session may no longer cost the black walls.
+/// `--crease-current`: the crease pairs' weight `ω_crease` and bound `T_c` at the current
+/// defaults (β 2, γ 2, `μ` 3e-2): the grid that chose the eleventh session's (0.01, 1.1).
 fn crease_current_grid() -> Vec<(String, LightFieldParams)> {
     let mut out = Vec::new();
     for weight in [0.01f32, 0.03, 0.1] {
@@ -200,9 +199,10 @@ fn beta_grid() -> Vec<(String, LightFieldParams)> {
 }
 
 /// `--toward-previous`: the default, the defaults before the ninth session, and the default with
-/// each of the five choices that separate them set back on its own (the reflectance filter's
-/// `β`, the data term's `γ`, its `μ`, the crease pairs' weight, their bound): which of them costs
-/// the accuracy that the earlier defaults have on ordinary scenes.
+/// each of the choices that separate them set back on its own (the reflectance filter's `β`, the
+/// data term's `γ`, its `μ`, the crease pairs' weight, their bound; one the default shares with
+/// the earlier defaults is left out): which of them costs the accuracy that the earlier
+/// defaults have on ordinary scenes.
 fn toward_previous_grid() -> Vec<(String, LightFieldParams)> {
     /// Sets one choice of the first parameters back to the second's.
     type SetBack = fn(&mut LightFieldParams, &LightFieldParams);

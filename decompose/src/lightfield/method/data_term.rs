@@ -23,8 +23,8 @@
 //! On by default at γ = 2, κ_c = 0.1, `μ` = 3e-2 since the ninth session, with the bounded
 //! crease pairs ([`super::DEFAULT_DATA_GAMMA`]: chosen by cross-validation on the goal
 //! count over 24 rendered scenes and confirmed on 8 fresh ones; the pairs' weight and bound
-//! were chosen again in the eleventh session, `CueParams::crease_weight`); before, γ = 1 at `μ` = 1e-2
-//! ([`super::LightFieldParams::previous_defaults`]). [`DataTermParams::THESIS`] is the thesis.
+//! were chosen again in the eleventh session, `CueParams::crease_weight`); before, γ = 1 at
+//! `μ` = 1e-2 ([`super::LightFieldParams::previous_defaults`]). [`DataTermParams::THESIS`] is the thesis.
 //! The measurements are at [`super::DEFAULT_DATA_GAMMA`], [`super::DATA_GAMMA`] and in
 //! docs/intrinsic-lightfields.md.
 

@@ -245,9 +245,9 @@ fn right_over_left(layer: &LightField, (w, h): (usize, usize), crease: usize) ->
 
 /// Two walls meeting in a vertical crease, one lit at full strength and one at 0.4, with a
 /// change of colour (of equal brightness) along the crease: the shading step stays in the
-/// shading with the crease pairs damped (the default since the eleventh session), mostly with the
-/// ninth session's weight 0.1, and goes into the reflectance without the crease cue (the albedo cue keeps the shading smooth across a
-/// colour change).
+/// shading with the crease pairs damped (the default since the eleventh session), mostly with
+/// the ninth session's weight 0.1, and goes into the reflectance without the crease cue (the
+/// albedo cue keeps the shading smooth across a colour change).
 #[test]
 fn the_shading_step_at_a_crease_stays_in_the_shading() {
     let size = (40usize, 24usize);
