@@ -12,7 +12,7 @@
 //! weight and bound at the current defaults, `--theta` that of the albedo cue's `θ_a`, `--beta`
 //! that of the reflectance filter's `β`, `--data-term` that of the data term's `γ`, `μ` and
 //! `κ_c`, `--toward-previous` the default with each choice that separates it from the defaults
-//! before the ninth session set back on its own).
+//! before the ninth session set back on its own, `--centre` the tie's `κ_c` from 0.1 up).
 //!
 //! The grid spans the choices that decide coherence and accuracy: the centre-view Retinex prior
 //! (`LightFieldParams::retinex_prior`), the sheared filter (`LightFieldParams::shear`), the
@@ -235,6 +235,20 @@ fn toward_previous_grid() -> Vec<(String, LightFieldParams)> {
     out
 }
 
+/// `--centre`: the weight `κ_c` of the dark rays' tie to the centre view's solution
+/// (`method::data_term`) at and above its default 0.1, the top of the grid it was chosen from:
+/// dark rays whose level each view's borders set are what the tie makes coherent.
+fn centre_grid() -> Vec<(String, LightFieldParams)> {
+    [0.1f32, 0.3, 1.0]
+        .into_iter()
+        .map(|centre_weight| {
+            let mut p = LightFieldParams::default();
+            p.data_term.centre_weight = centre_weight;
+            (format!("centre {centre_weight}"), p)
+        })
+        .collect()
+}
+
 /// `--data-term`: the data term's `γ`, `μ` and `κ_c` (`method::data_term`), every other
 /// choice at its default. `γ` = 0 is the thesis' data term (then `κ_c` has no effect).
 fn data_term_grid() -> Vec<(String, LightFieldParams)> {
@@ -298,6 +312,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         beta_grid()
     } else if args.iter().any(|a| a == "--theta") {
         theta_grid()
+    } else if args.iter().any(|a| a == "--centre") {
+        centre_grid()
     } else if args.iter().any(|a| a == "--crease-current") {
         crease_current_grid()
     } else if args.iter().any(|a| a == "--crease-fine") {
