@@ -73,6 +73,14 @@ fn video_writes_every_layer_of_every_frame_and_the_product_is_the_input() {
     assert_eq!(stats["frames"].as_array().unwrap().len(), 8);
     // Step 8 ran on every frame.
     assert_eq!(stats["per_frame_blend"], true);
+    // Step 8's weights: the single view's β and the clustering method's β_c.
+    let weights = &stats["blend_weights"];
+    let (view, clustering) = (weights["view"].as_f64(), weights["clustering"].as_f64());
+    assert!(view.is_some_and(|v| v > 0.0 && v < 1.0), "{weights}");
+    assert!(
+        clustering.is_some_and(|c| c > 0.0 && view.unwrap() + c < 1.0),
+        "{weights}"
+    );
     for f in stats["frames"].as_array().unwrap() {
         assert!(f["view_ms"].as_f64().unwrap() > 0.0, "{f}");
     }
@@ -137,6 +145,7 @@ fn no_blend_gives_the_propagated_decomposition() {
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(thesis.join("stats.json")).unwrap()).unwrap();
     assert_eq!(stats["per_frame_blend"], false);
+    assert!(stats["blend_weights"].is_null());
     assert_eq!(stats["views_ms"].as_f64().unwrap(), 0.0);
     for f in stats["frames"].as_array().unwrap() {
         assert_eq!(f["view_ms"].as_f64().unwrap(), 0.0, "{f}");

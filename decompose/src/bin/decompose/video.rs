@@ -274,6 +274,10 @@ pub(crate) fn run_video(a: VideoArgs) -> Result<()> {
     json["height"] = h.into();
     json["shading_scale"] = sink.shading_scale.map_or(1.0, |s| 1.0 / s).into();
     json["per_frame_blend"] = params.fusion.is_some().into();
+    json["blend_weights"] = params.fusion.as_ref().map_or(
+        serde_json::Value::Null,
+        |f| serde_json::json!({ "view": f.beta, "clustering": f.clustering_weight }),
+    );
     json["reflectance_radius"] = params.propagate.reflectance_radius.into();
     json["output_encoding"] = if a.output.linear_output {
         "linear"

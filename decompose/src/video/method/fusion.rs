@@ -11,14 +11,25 @@
 //!
 //! Per frame `t`, on the log shading (grey; `R = I / S` keeps `R × S = I` exact):
 //!
-//! 1. `s_v`: the shading of the light-field method ([`crate::lightfield::decompose`]) run on
-//!    the frame as a light field of one view. With one view and no disparity it is the
-//!    gradient-domain Retinex of thesis §4.3 with the colour-line albedo cue, and a 2D TV-L1 of
-//!    its log reflectance; 0.18 s at 800×600 on the 2 cores, against 1.25 s for Zhao's Retinex.
-//!    `s_v` is moved to the video's scale: the median of `s_v − s` over the lit pixels is
-//!    subtracted (the single view picks its own white point every frame; left in, that would
-//!    be a flicker of the whole frame).
-//! 2. The blend `s_b = (1 − β) s + β s_v`, with `s` the propagated log shading (steps 1–7).
+//! 1. Two single-image decompositions of the frame alone:
+//!    - `s_v`: the shading of the light-field method ([`crate::lightfield::decompose`]) run on
+//!      the frame as a light field of one view. With one view and no disparity it is the
+//!      gradient-domain Retinex of thesis §4.3 with the colour-line albedo cue, and a 2D TV-L1
+//!      of its log reflectance; 0.18 s at 800×600 on the 2 cores, against 1.25 s for Zhao's
+//!      Retinex;
+//!    - `s_c`: the shading of the clustering method of thesis ch. 2 ([`crate::clustering`]),
+//!      on the frame scaled down to at most 320×240 pixels
+//!      ([`FusionParams::clustering_max_pixels`]) and scaled back up. Its errors are other
+//!      than the Retinex family's (cluster levels from border equations instead of
+//!      gradients), and its frame-to-frame flicker, large on its own, is what the average of
+//!      3. takes out. On the 37 tuning sequences, leave-one-sequence-out: held-out goal count
+//!      30 against 27 without it (`docs/video-data.md`, twelfth session).
+//!
+//!    Each is moved to the video's scale: the median of `s_m − s` over the lit pixels is
+//!    subtracted (a single image picks its own white point every frame; left in, that would be
+//!    a flicker of the whole frame).
+//! 2. The blend `s_b = (1 − β − β_c) s + β s_v + β_c s_c`, with `s` the propagated log shading
+//!    (steps 1–7).
 //! 3. The log reflectance level `d = ln Ī − s_b` (`Ī` the mean of the RGB channels) is
 //!    averaged along the flow: `D_t = (1 − α) D_{t−1}(p + b(p)) + α d_t(p)`, with `b` the flow
 //!    from frame `t` back to `t − 1` (bilinear). A pixel whose predecessor is out of the frame,
@@ -26,22 +37,35 @@
 //!    moving light) keeps `D_t = d_t`.
 //! 4. The frame's shading is `Ī / e^{D_t}`. Unlit pixels (`Ī = 0`) keep the propagated shading.
 //!
-//! Memory: the previous frame's `D` and `ln Ī` (8 bytes a pixel).
+//! Memory: the previous frame's `D` and `ln Ī` (8 bytes a pixel); the two members' shadings are
+//! cached in the scratch folder (4 bytes a pixel each).
 
 use rayon::prelude::*;
 
+use crate::clustering::ClusteringParams;
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::lightfield::method::PREVIOUS_REFLECTANCE_BETA;
 use crate::lightfield::{LightField, LightFieldParams};
 use crate::video::flow::Flow;
 
+/// `β` by default: the single view's weight in the blend.
+pub const DEFAULT_VIEW_WEIGHT: f32 = 0.4;
+/// `β_c` by default: the clustering method's weight in the blend.
+pub const DEFAULT_CLUSTERING_WEIGHT: f32 = 0.1;
+
+/// [`FusionParams::clustering_max_pixels`] by default: 320×240.
+pub const DEFAULT_CLUSTERING_MAX_PIXELS: usize = 320 * 240;
+
 /// Parameters of step 8 ([`super::VideoParams::fusion`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FusionParams {
-    /// `β`: the single-image decomposition's weight in the log-shading blend, in [0, 1]
-    /// (0: the propagated shading only).
+    /// `β`: the weight of the single view (the light-field method) in the log-shading blend,
+    /// in [0, 1] (0: not used).
     pub beta: f32,
+    /// `β_c`: the weight of the clustering method (thesis ch. 2) in the log-shading blend, in
+    /// [0, 1] with `β + β_c ≤ 1` (0: not used; the propagated shading keeps `1 − β − β_c`).
+    pub clustering_weight: f32,
     /// `α`: the rate of the average along the flow, in (0, 1] (1: no averaging).
     pub alpha: f32,
     /// Largest `|ln Ī_t(p) − ln Ī_{t−1}(p + b(p))|` for the average to carry a pixel. Default 0.1.
@@ -52,12 +76,22 @@ pub struct FusionParams {
     /// the setting step 8 was tuned and tested with (the light field's per-ray data term and its
     /// β = 2 came later and were not chosen on videos).
     pub view: LightFieldParams,
+    /// The clustering method's parameters (those of `decompose image --method clustering`).
+    pub clustering: ClusteringParams,
+    /// Largest number of pixels the clustering method runs on: a larger frame is scaled down
+    /// (bilinear, same aspect) to fit, and the shading scaled back up. Default
+    /// [`DEFAULT_CLUSTERING_MAX_PIXELS`], the 320×240 sequences `β_c` was chosen on, which it
+    /// leaves untouched; on larger frames the method's cost grows with its clusters (0.5 s a
+    /// frame at 800×600 on the synthetic `bench --video` sequence, 10,000+ clusters), which
+    /// the 1 frame/s target cannot carry.
+    pub clustering_max_pixels: usize,
 }
 
 impl Default for FusionParams {
     fn default() -> Self {
         Self {
-            beta: 0.5,
+            beta: DEFAULT_VIEW_WEIGHT,
+            clustering_weight: DEFAULT_CLUSTERING_WEIGHT,
             alpha: 0.1,
             gate: 0.1,
             view: {
@@ -65,14 +99,26 @@ impl Default for FusionParams {
                 view.reflectance_filter.beta = PREVIOUS_REFLECTANCE_BETA;
                 view
             },
+            clustering: ClusteringParams::default(),
+            clustering_max_pixels: DEFAULT_CLUSTERING_MAX_PIXELS,
         }
     }
 }
 
 impl FusionParams {
-    /// Whether the blend uses a single-image decomposition at all (`β > 0`).
+    /// Whether the blend uses a single-image decomposition at all (`β > 0` or `β_c > 0`).
     pub fn blends(&self) -> bool {
+        self.uses_view() || self.uses_clustering()
+    }
+
+    /// Whether the blend uses the single view (`β > 0`).
+    pub fn uses_view(&self) -> bool {
         self.beta > 0.0
+    }
+
+    /// Whether the blend uses the clustering method (`β_c > 0`).
+    pub fn uses_clustering(&self) -> bool {
+        self.clustering_weight > 0.0
     }
 
     /// Errors with [`Error::InvalidParam`] naming the first value out of range.
@@ -80,14 +126,36 @@ impl FusionParams {
         if !(0.0..=1.0).contains(&self.beta) {
             return Err(Error::param("beta", self.beta, "must be in [0, 1]"));
         }
+        if !(0.0..=1.0).contains(&self.clustering_weight) {
+            return Err(Error::param(
+                "clustering_weight",
+                self.clustering_weight,
+                "must be in [0, 1]",
+            ));
+        }
+        if self.beta + self.clustering_weight > 1.0 + 1e-6 {
+            return Err(Error::param(
+                "clustering_weight",
+                self.clustering_weight,
+                "beta + clustering_weight must be at most 1",
+            ));
+        }
         if !(self.alpha > 0.0 && self.alpha <= 1.0) {
             return Err(Error::param("alpha", self.alpha, "must be in (0, 1]"));
         }
         if !(self.gate.is_finite() && self.gate >= 0.0) {
             return Err(Error::param("gate", self.gate, "must be finite and >= 0"));
         }
+        if self.clustering_max_pixels == 0 {
+            return Err(Error::param(
+                "clustering_max_pixels",
+                self.clustering_max_pixels,
+                "must be at least 1",
+            ));
+        }
         self.view.reflectance_filter.validate()?;
-        self.view.data_term.validate()
+        self.view.data_term.validate()?;
+        self.clustering.validate()
     }
 }
 
@@ -106,38 +174,34 @@ impl<'a> Fusion<'a> {
         }
     }
 
-    /// The frame's single-image shading when the blend needs one (`β > 0`).
-    pub fn view(&self, frame: &Image) -> Result<Option<Vec<f32>>> {
-        if self.params.blends() {
-            single_view_shading(frame, &self.params.view).map(Some)
-        } else {
-            Ok(None)
-        }
+    /// The parameters.
+    pub fn params(&self) -> &'a FusionParams {
+        self.params
     }
 
     /// Replaces `shading` (one value per pixel of `frame`, the propagated linear shading) by
     /// the fused one. Frames come in order; `back_flow` is the flow from this frame to the one
-    /// before (ignored for the first frame); `view`, the frame's [`single_view_shading`]
-    /// ([`Fusion::view`]; `None`: no blend). Pixels in `keep` are not blended (the user's
+    /// before (ignored for the first frame); `members`, the frame's single-image shadings
+    /// ([`Fusion::members`]; none: no blend). Pixels in `keep` are not blended (the user's
     /// constant-albedo and constant-shading strokes on the first frame, which the single-image
-    /// decomposition does not see).
+    /// decompositions do not see).
     pub fn fuse(
         &mut self,
         frame: &Image,
         shading: &mut [f32],
         back_flow: &Flow,
-        view: Option<Vec<f32>>,
+        members: &Members,
         keep: Option<&[bool]>,
     ) -> Result<()> {
         let log_i = log_mean_intensity(frame);
-        let s = if let Some(view) = view {
-            blend(shading, &view, &log_i, self.params.beta, keep)
-        } else {
-            shading
-                .iter()
-                .map(|v| v.max(f32::MIN_POSITIVE).ln())
-                .collect()
-        };
+        let weighted: Vec<(&[f32], f32)> = [
+            (members.view.as_deref(), self.params.beta),
+            (members.clustering.as_deref(), self.params.clustering_weight),
+        ]
+        .into_iter()
+        .filter_map(|(m, w)| m.map(|m| (m, w)))
+        .collect();
+        let s = blend(shading, &weighted, &log_i, keep);
         let d: Vec<f32> = log_i.iter().zip(&s).map(|(i, s)| i - s).collect();
         let fused = match &self.previous {
             Some((prev_d, prev_i)) if self.params.alpha < 1.0 => average_along_flow(
@@ -161,6 +225,29 @@ impl<'a> Fusion<'a> {
     }
 }
 
+/// One frame's single-image shadings for the blend (`None`: not used or not computed).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct Members {
+    /// The single view's shading ([`single_view_shading`]).
+    pub view: Option<Vec<f32>>,
+    /// The clustering method's shading ([`clustering_shading`]).
+    pub clustering: Option<Vec<f32>>,
+}
+
+/// The single-image shadings of `frame` that `params` blends.
+pub(super) fn members(frame: &Image, params: &FusionParams) -> Result<Members> {
+    Ok(Members {
+        view: params
+            .uses_view()
+            .then(|| single_view_shading(frame, &params.view))
+            .transpose()?,
+        clustering: params
+            .uses_clustering()
+            .then(|| clustering_shading(frame, params))
+            .transpose()?,
+    })
+}
+
 /// `ln` of the mean of the RGB channels, NaN where it is 0 (unlit).
 fn log_mean_intensity(frame: &Image) -> Vec<f32> {
     frame
@@ -182,41 +269,74 @@ pub(super) fn single_view_shading(frame: &Image, params: &LightFieldParams) -> R
     Ok(d.shading.view_data(0).to_vec())
 }
 
-/// `(1 − β) ln s + β (ln v − m)` per pixel, with `m` the median of `ln v − ln s` over the lit
-/// pixels (the view's shading moved to the propagated shading's scale); `ln s` where `keep`.
+/// The shading of the clustering method (thesis ch. 2) on `frame` alone (step 8's second
+/// single-image decomposition), at most [`FusionParams::clustering_max_pixels`] pixels.
+pub(super) fn clustering_shading(frame: &Image, params: &FusionParams) -> Result<Vec<f32>> {
+    let (w, h) = frame.dims();
+    let (sw, sh) = working_size(w, h, params.clustering_max_pixels);
+    if (sw, sh) == (w, h) {
+        let out = crate::clustering::decompose(frame, None, &params.clustering, &mut |_| {})?;
+        return Ok(out.decomposition.shading.into_vec());
+    }
+    let small = frame.resize(sw, sh);
+    let out = crate::clustering::decompose(&small, None, &params.clustering, &mut |_| {})?;
+    Ok(out.decomposition.shading.resize(w, h).into_vec())
+}
+
+/// The largest size of `w`×`h`'s aspect with at most `max_pixels` pixels (at least 1×1);
+/// `w`×`h` itself when it fits.
+pub(super) fn working_size(w: u32, h: u32, max_pixels: usize) -> (u32, u32) {
+    let n = w as usize * h as usize;
+    if n <= max_pixels {
+        return (w, h);
+    }
+    let f = (max_pixels as f64 / n as f64).sqrt();
+    let (mut sw, mut sh) = (
+        ((w as f64 * f).floor() as u32).max(1),
+        ((h as f64 * f).floor() as u32).max(1),
+    );
+    while sw as usize * sh as usize > max_pixels && (sw > 1 || sh > 1) {
+        if sw >= sh { sw -= 1 } else { sh -= 1 }
+    }
+    (sw, sh)
+}
+
+/// `(1 − Σ w_m) ln s + Σ w_m (ln s_m − m_m)` per pixel over the weighted members `(s_m, w_m)`,
+/// with `m_m` the median of `ln s_m − ln s` over the lit pixels (each member moved to the
+/// propagated shading's scale); `ln s` where `keep`.
 pub(super) fn blend(
     propagated: &[f32],
-    view: &[f32],
+    members: &[(&[f32], f32)],
     log_i: &[f32],
-    beta: f32,
     keep: Option<&[bool]>,
 ) -> Vec<f32> {
     let ln = |v: f32| v.max(f32::MIN_POSITIVE).ln();
-    let mut diff: Vec<f32> = propagated
-        .iter()
-        .zip(view)
-        .zip(log_i)
-        .filter(|(_, l)| l.is_finite())
-        .map(|((&s, &v), _)| ln(v) - ln(s))
-        .collect();
-    let m = if diff.is_empty() {
-        0.0
-    } else {
-        let k = diff.len() / 2;
-        *diff.select_nth_unstable_by(k, f32::total_cmp).1
-    };
-    propagated
-        .iter()
-        .zip(view)
-        .enumerate()
-        .map(|(p, (&s, &v))| {
-            if keep.is_some_and(|k| k[p]) {
-                ln(s)
-            } else {
-                (1.0 - beta) * ln(s) + beta * (ln(v) - m)
+    let mut out: Vec<f32> = propagated.iter().map(|&s| ln(s)).collect();
+    for &(member, w) in members {
+        let mut diff: Vec<f32> = propagated
+            .iter()
+            .zip(member)
+            .zip(log_i)
+            .filter(|(_, l)| l.is_finite())
+            .map(|((&s, &v), _)| ln(v) - ln(s))
+            .collect();
+        let m = if diff.is_empty() {
+            0.0
+        } else {
+            let k = diff.len() / 2;
+            *diff.select_nth_unstable_by(k, f32::total_cmp).1
+        };
+        for (p, (o, (&s, &v))) in out
+            .iter_mut()
+            .zip(propagated.iter().zip(member))
+            .enumerate()
+        {
+            if !keep.is_some_and(|k| k[p]) {
+                *o += w * (ln(v) - m - ln(s));
             }
-        })
-        .collect()
+        }
+    }
+    out
 }
 
 /// `D_t(p) = (1 − α) D_{t−1}(p + b(p)) + α d_t(p)` where the predecessor `p + b(p)` is inside

@@ -18,7 +18,8 @@ use crate::video::propagate::{
 
 use super::complete::complete_frame;
 use super::first::FIRST_FRAME_SHARE;
-use super::fusion::single_view_shading;
+use super::fusion::members;
+use super::state::Member;
 use super::state::{FrameState, PixelSource, Scratch};
 use super::{FrameStats, VideoParams};
 
@@ -148,7 +149,11 @@ impl Run<'_> {
         let t_start = Instant::now();
         let n = self.source.len();
         let (source, scratch) = (self.source, &self.scratch);
-        let frames: Vec<usize> = (0..n).filter(|&t| !scratch.has_view_shading(t)).collect();
+        let missing = |t: usize| {
+            (fusion.uses_view() && !scratch.has_member_shading(Member::View, t))
+                || (fusion.uses_clustering() && !scratch.has_member_shading(Member::Clustering, t))
+        };
+        let frames: Vec<usize> = (0..n).filter(|&t| missing(t)).collect();
         let batch = rayon::current_num_threads().max(1);
         for (done, chunk) in frames.chunks(batch).enumerate() {
             let took: Vec<Result<f64>> = chunk
@@ -156,8 +161,14 @@ impl Run<'_> {
                 .map(|&t| {
                     let img = source.frame(t)?;
                     let t0 = Instant::now();
-                    let v = single_view_shading(&img, &fusion.view)?;
-                    scratch.save_view_shading(t, img.dims(), &v)?;
+                    let m = members(&img, fusion)?;
+                    for (kind, shading) in
+                        [(Member::View, m.view), (Member::Clustering, m.clustering)]
+                    {
+                        if let Some(shading) = shading {
+                            scratch.save_member_shading(kind, t, img.dims(), &shading)?;
+                        }
+                    }
                     Ok(ms(t0))
                 })
                 .collect();

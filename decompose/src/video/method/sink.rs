@@ -15,10 +15,11 @@ use crate::retinex::Strokes;
 use crate::video::flow::{Flow, invert};
 
 use super::fusion::Fusion;
+use super::fusion::Members;
 use super::levels::{self, LevelSummary};
 use super::passes;
 use super::residual;
-use super::state::PixelSource;
+use super::state::{Member, PixelSource};
 
 /// One frame's final result, lent to a [`FrameSink`].
 #[derive(Clone, Copy, Debug)]
@@ -137,14 +138,14 @@ pub(crate) fn output(
     let dims = run.source.size();
     let mut evidence = levels::BorderEvidence::default();
     let voting = run.params.levels.as_ref().is_some_and(|l| l.view_vote)
-        && run.params.fusion.as_ref().is_some_and(|f| f.blends());
+        && run.params.fusion.as_ref().is_some_and(|f| f.uses_view());
     let mut views = levels::ViewLevels::default();
     for t in 0..n {
         let img = run.source.frame(t)?;
         let mut st = run.scratch.load_state(t, dims)?;
         let t0 = Instant::now();
         residual::fill_residual(&img, &mut st, &run.params.retinex.solver)?;
-        if voting && let Some(view) = run.scratch.load_view_shading(t, dims)? {
+        if voting && let Some(view) = run.scratch.load_member_shading(Member::View, t, dims)? {
             views.add_frame(&st.labels, &st.shading, &view);
         }
         if run.params.levels.is_some() {
@@ -205,15 +206,8 @@ pub(crate) fn output(
             let t0 = Instant::now();
             let back = back_flow(run, t, dims)?;
             let keep = stroked.as_deref().filter(|_| t == 0);
-            let (view, view_ms) = match run.scratch.load_view_shading(t, dims)? {
-                Some(v) => (Some(v), 0.0),
-                None => {
-                    let t1 = Instant::now();
-                    let v = fusion.view(&img)?;
-                    (v, t1.elapsed().as_secs_f64() * 1e3)
-                }
-            };
-            fusion.fuse(&img, &mut st.shading, &back, view, keep)?;
+            let (members, view_ms) = cached_members(run, fusion.params(), t, dims, &img)?;
+            fusion.fuse(&img, &mut st.shading, &back, &members, keep)?;
             run.stats[t].view_ms += view_ms;
             run.stats[t].fusion_ms += t0.elapsed().as_secs_f64() * 1e3 - view_ms;
         }
@@ -236,6 +230,45 @@ pub(crate) fn output(
 
 /// The flow from frame `t` back to `t − 1` for step 8: the cached backward flow, else the
 /// cached forward flow inverted, else (frame 0, or the no-flow ablation) the zero flow.
+/// Frame t's single-image shadings for step 8: from the scratch folder where
+/// [`passes::Run::cache_views`] put them, else computed now (with the time that took, ms).
+fn cached_members(
+    run: &passes::Run,
+    params: &super::FusionParams,
+    t: usize,
+    dims: (u32, u32),
+    img: &Image,
+) -> Result<(Members, f64)> {
+    let mut members = Members {
+        view: run.scratch.load_member_shading(Member::View, t, dims)?,
+        clustering: run
+            .scratch
+            .load_member_shading(Member::Clustering, t, dims)?,
+    };
+    let t0 = Instant::now();
+    let mut computed = false;
+    if params.uses_view() && members.view.is_none() {
+        members.view = Some(super::fusion::single_view_shading(img, &params.view)?);
+        computed = true;
+    }
+    if params.uses_clustering() && members.clustering.is_none() {
+        members.clustering = Some(super::fusion::clustering_shading(img, params)?);
+        computed = true;
+    }
+    let took = if computed {
+        t0.elapsed().as_secs_f64() * 1e3
+    } else {
+        0.0
+    };
+    if !params.uses_view() {
+        members.view = None;
+    }
+    if !params.uses_clustering() {
+        members.clustering = None;
+    }
+    Ok((members, took))
+}
+
 fn back_flow(run: &passes::Run, t: usize, dims: (u32, u32)) -> Result<Flow> {
     if t == 0 {
         return Ok(Flow::zeros(dims.0, dims.1));

@@ -7,8 +7,8 @@
 //!   `f32 × n` (9 bytes a pixel);
 //! - flow `fwd_NNNNNN.flow` (frame t to t + 1) and `bwd_NNNNNN.flow` (frame t + 1 to t), magic
 //!   `IVF1`: `u` then `v`, `f32 × n` each;
-//! - step 8's single-image shading `view_NNNNNN.shading` (module `fusion`), magic `IVV1`:
-//!   `f32 × n`.
+//! - step 8's single-image shadings (module `fusion`) `view_NNNNNN.shading`, magic `IVV1`, and
+//!   `clustering_NNNNNN.shading`, magic `IVC1`: `f32 × n`.
 //!
 //! The reflectance is not stored: it is `input / shading` of the re-read input frame.
 
@@ -116,6 +116,31 @@ impl FrameState {
     }
 }
 
+/// Step 8's single-image decompositions of a frame, each cached in a file of its own.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Member {
+    /// The light-field method on the frame as one view ([`super::fusion::single_view_shading`]).
+    View,
+    /// The clustering method of thesis ch. 2 ([`super::fusion::clustering_shading`]).
+    Clustering,
+}
+
+impl Member {
+    fn prefix(self) -> &'static str {
+        match self {
+            Self::View => "view",
+            Self::Clustering => "clustering",
+        }
+    }
+
+    fn magic(self) -> &'static [u8; 4] {
+        match self {
+            Self::View => b"IVV1",
+            Self::Clustering => b"IVC1",
+        }
+    }
+}
+
 /// The scratch folder's files.
 #[derive(Clone, Debug)]
 pub(crate) struct Scratch {
@@ -143,27 +168,38 @@ impl Scratch {
         self.dir.join(format!("{kind}_{t:06}.flow"))
     }
 
-    fn view_path(&self, t: usize) -> PathBuf {
-        self.dir.join(format!("view_{t:06}.shading"))
+    fn member_path(&self, member: Member, t: usize) -> PathBuf {
+        self.dir.join(format!("{}_{t:06}.shading", member.prefix()))
     }
 
-    /// Caches frame t's single-image shading (step 8).
-    pub fn save_view_shading(&self, t: usize, dims: (u32, u32), shading: &[f32]) -> Result<()> {
-        let mut buf = header(b"IVV1", dims.0, dims.1, 4 * shading.len());
+    /// Caches frame t's shading by one of step 8's single-image decompositions.
+    pub fn save_member_shading(
+        &self,
+        member: Member,
+        t: usize,
+        dims: (u32, u32),
+        shading: &[f32],
+    ) -> Result<()> {
+        let mut buf = header(member.magic(), dims.0, dims.1, 4 * shading.len());
         for &x in shading {
             buf.extend_from_slice(&x.to_le_bytes());
         }
-        write(&self.view_path(t), &buf)
+        write(&self.member_path(member, t), &buf)
     }
 
-    /// Whether frame t's single-image shading is cached.
-    pub fn has_view_shading(&self, t: usize) -> bool {
-        self.view_path(t).is_file()
+    /// Whether frame t's shading by `member` is cached.
+    pub fn has_member_shading(&self, member: Member, t: usize) -> bool {
+        self.member_path(member, t).is_file()
     }
 
-    /// Frame t's cached single-image shading, if computed.
-    pub fn load_view_shading(&self, t: usize, dims: (u32, u32)) -> Result<Option<Vec<f32>>> {
-        let path = self.view_path(t);
+    /// Frame t's cached shading by `member`, if computed.
+    pub fn load_member_shading(
+        &self,
+        member: Member,
+        t: usize,
+        dims: (u32, u32),
+    ) -> Result<Option<Vec<f32>>> {
+        let path = self.member_path(member, t);
         if !path.is_file() {
             return Ok(None);
         }
@@ -172,7 +208,7 @@ impl Scratch {
         Ok(Some(f32s(check_header(
             &path,
             &bytes,
-            b"IVV1",
+            member.magic(),
             dims,
             4 * n,
         )?)))

@@ -8,7 +8,7 @@ use decompose::retinex::Strokes;
 use decompose::video::baseline::{PerFrameMethod, per_frame};
 use decompose::video::frames::FrameSource;
 use decompose::video::method::{
-    Ablation, BorderLevelParams, VideoFrame, VideoParams, decompose_video,
+    Ablation, BorderLevelParams, FusionParams, VideoFrame, VideoParams, decompose_video,
 };
 use decompose::video::propagate::PropagateParams;
 
@@ -102,6 +102,17 @@ pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
                 "ours, no per-frame blend (thesis)",
                 Box::new(VideoParams {
                     fusion: None,
+                    ..Default::default()
+                }),
+            ),
+            Runner::Ours(
+                "ours, no clustering member (eighth-session blend)",
+                Box::new(VideoParams {
+                    fusion: Some(FusionParams {
+                        beta: 0.5,
+                        clustering_weight: 0.0,
+                        ..Default::default()
+                    }),
                     ..Default::default()
                 }),
             ),

@@ -1,6 +1,6 @@
 //! Step 8 (module `fusion`): the blend, the average along the flow, and the step in the method.
 
-use super::super::fusion::{average_along_flow, blend};
+use super::super::fusion::{average_along_flow, blend, clustering_shading, working_size};
 use super::*;
 use crate::video::flow::Flow;
 
@@ -72,35 +72,53 @@ fn the_blend_is_on_the_propagated_scale_and_keeps_stroked_pixels() {
     let s: Vec<f32> = (0..n).map(|p| 0.2 + p as f32 / 60.0).collect();
     let v: Vec<f32> = (0..n).map(|p| 0.5 + ((p * 7) % 11) as f32 / 20.0).collect();
     let log_i = vec![0.0f32; n];
-    let a = blend(&s, &v, &log_i, 0.6, None);
+    let a = blend(&s, &[(&v, 0.6)], &log_i, None);
     // The view's own scale does not matter: it is moved to the propagated one.
     let v7: Vec<f32> = v.iter().map(|x| 7.0 * x).collect();
-    let b = blend(&s, &v7, &log_i, 0.6, None);
+    let b = blend(&s, &[(&v7, 0.6)], &log_i, None);
     for (x, y) in a.iter().zip(&b) {
         assert!((x - y).abs() < 1e-5, "{x} {y}");
     }
     // β = 0 is the propagated shading; β = 1 the view's, whose median log ratio to the
     // propagated one is then 0.
-    let zero = blend(&s, &v, &log_i, 0.0, None);
+    let zero = blend(&s, &[(&v, 0.0)], &log_i, None);
+    assert!(blend(&s, &[], &log_i, None) == zero);
     assert!(zero.iter().zip(&s).all(|(z, s)| (z - s.ln()).abs() < 1e-6));
-    let one = blend(&s, &v, &log_i, 1.0, None);
+    let one = blend(&s, &[(&v, 1.0)], &log_i, None);
     let mut ratio: Vec<f32> = one.iter().zip(&s).map(|(o, s)| o - s.ln()).collect();
     ratio.sort_by(f32::total_cmp);
     assert!(ratio[n / 2].abs() < 1e-6, "median {}", ratio[n / 2]);
     // Kept pixels are the propagated shading.
     let keep: Vec<bool> = (0..n).map(|p| p < 10).collect();
-    let kept = blend(&s, &v, &log_i, 0.6, Some(&keep));
+    let kept = blend(&s, &[(&v, 0.6)], &log_i, Some(&keep));
     for p in 0..n {
         let expected = if p < 10 { s[p].ln() } else { a[p] };
         assert!((kept[p] - expected).abs() < 1e-6);
     }
+    // Two members: each moved to the propagated scale on its own, then weighted; the
+    // propagated shading keeps 1 − 0.4 − 0.1.
+    let c: Vec<f32> = (0..n).map(|p| 3.0 + ((p * 3) % 7) as f32).collect();
+    let both = blend(&s, &[(&v, 0.4), (&c, 0.1)], &log_i, None);
+    let (bv, bc) = (
+        blend(&s, &[(&v, 1.0)], &log_i, None),
+        blend(&s, &[(&c, 1.0)], &log_i, None),
+    );
+    for p in 0..n {
+        let expected = 0.5 * s[p].ln() + 0.4 * bv[p] + 0.1 * bc[p];
+        assert!(
+            (both[p] - expected).abs() < 1e-5,
+            "{p}: {} {expected}",
+            both[p]
+        );
+    }
 }
 
 #[test]
-fn the_blend_keeps_the_product_and_lowers_the_flicker_of_the_view_alone() {
-    // The step on, against the step with β = 1 and no averaging (the single view alone, moved
-    // to the video's scale): the product holds on every frame, and averaging along the flow
-    // with the propagated shading flickers less than the view alone.
+fn the_blend_keeps_the_product_and_lowers_the_flicker_of_each_single_image_member() {
+    // The step on, against the step with one member's weight 1 and no averaging (the single
+    // view alone, the clustering method alone, each moved to the video's scale): the product
+    // holds on every frame, and averaging along the flow with the propagated shading flickers
+    // less than either member alone.
     let (frames, _) = translating(8, 32, 24, 1);
     let on = params();
     let (out, stats, _d) = run(&frames, &on);
@@ -114,6 +132,16 @@ fn the_blend_keeps_the_product_and_lowers_the_flicker_of_the_view_alone() {
     let view_alone = VideoParams {
         fusion: Some(FusionParams {
             beta: 1.0,
+            clustering_weight: 0.0,
+            alpha: 1.0,
+            ..Default::default()
+        }),
+        ..params()
+    };
+    let clustering_alone = VideoParams {
+        fusion: Some(FusionParams {
+            beta: 0.0,
+            clustering_weight: 1.0,
             alpha: 1.0,
             ..Default::default()
         }),
@@ -121,12 +149,16 @@ fn the_blend_keeps_the_product_and_lowers_the_flicker_of_the_view_alone() {
     };
     let (alone, _, _d2) = run(&frames, &view_alone);
     assert_product(&frames, &alone);
+    let (clustering, _, _d4) = run(&frames, &clustering_alone);
+    assert_product(&frames, &clustering);
     let fl = |o: &[OwnedFrame]| flicker(&o.iter().map(|o| &o.reflectance).collect::<Vec<_>>(), 1);
-    let (ours, theirs) = (fl(&out), fl(&alone));
-    assert!(
-        ours < theirs,
-        "flicker: blended {ours:.4}, view alone {theirs:.4}"
-    );
+    let ours = fl(&out);
+    for (name, theirs) in [("view", fl(&alone)), ("clustering", fl(&clustering))] {
+        assert!(
+            ours < theirs,
+            "flicker: blended {ours:.4}, {name} alone {theirs:.4}"
+        );
+    }
     // Off: the thesis' output, no time spent.
     let (off, stats, _d3) = run(
         &frames,
@@ -159,6 +191,15 @@ fn fusion_parameters_are_checked() {
             gate: f32::NAN,
             ..Default::default()
         },
+        FusionParams {
+            clustering_weight: -0.1,
+            ..Default::default()
+        },
+        FusionParams {
+            beta: 0.8,
+            clustering_weight: 0.3,
+            ..Default::default()
+        },
     ] {
         let p = VideoParams {
             fusion: Some(bad),
@@ -166,4 +207,66 @@ fn fusion_parameters_are_checked() {
         };
         assert!(p.validate().is_err());
     }
+}
+
+#[test]
+fn the_clustering_member_runs_at_most_at_its_working_size() {
+    // The cap keeps the aspect and never exceeds the pixel budget; a frame that fits is
+    // decomposed as it is.
+    assert_eq!(working_size(320, 240, 320 * 240), (320, 240));
+    assert_eq!(working_size(800, 600, 320 * 240), (320, 240));
+    assert_eq!(working_size(100, 50, 1_000_000), (100, 50));
+    for (w, h, max) in [
+        (1000u32, 10u32, 100usize),
+        (7, 1000, 50),
+        (640, 480, 12_345),
+        (3, 3, 1),
+    ] {
+        let (sw, sh) = working_size(w, h, max);
+        assert!(
+            sw >= 1 && sh >= 1 && sw as usize * sh as usize <= max,
+            "{w}x{h} → {sw}x{sh}"
+        );
+        let (a, b) = (w as f64 / h as f64, sw as f64 / sh as f64);
+        assert!(
+            sw == 1 || sh == 1 || (a / b - 1.0).abs() < 0.25,
+            "{w}x{h} → {sw}x{sh}"
+        );
+    }
+    // Below the cap the member is the clustering method's own shading; above it, a shading of
+    // the frame's size that follows the full-size one (the same smooth light and flat albedos).
+    let (frames, _) = translating(1, 48, 36, 0);
+    let fusion = FusionParams::default();
+    let full = clustering_shading(&frames[0], &fusion).unwrap();
+    let own = crate::clustering::decompose(&frames[0], None, &fusion.clustering, &mut |_| {})
+        .unwrap()
+        .decomposition
+        .shading
+        .into_vec();
+    assert_eq!(full, own);
+    let capped = clustering_shading(
+        &frames[0],
+        &FusionParams {
+            clustering_max_pixels: 24 * 18,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(capped.len(), full.len());
+    let log_ratio: Vec<f32> = capped
+        .iter()
+        .zip(&full)
+        .map(|(c, f)| (c / f).ln())
+        .collect();
+    let mean = log_ratio.iter().sum::<f32>() / log_ratio.len() as f32;
+    let spread = log_ratio.iter().map(|r| (r - mean).abs()).sum::<f32>() / log_ratio.len() as f32;
+    assert!(spread < 0.15, "mean |log ratio − mean| {spread}");
+    let bad = VideoParams {
+        fusion: Some(FusionParams {
+            clustering_max_pixels: 0,
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    assert!(bad.validate().is_err());
 }
