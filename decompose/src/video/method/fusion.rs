@@ -182,7 +182,7 @@ impl<'a> Fusion<'a> {
     /// Replaces `shading` (one value per pixel of `frame`, the propagated linear shading) by
     /// the fused one. Frames come in order; `back_flow` is the flow from this frame to the one
     /// before (ignored for the first frame); `members`, the frame's single-image shadings
-    /// ([`Fusion::members`]; none: no blend). Pixels in `keep` are not blended (the user's
+    /// ([`members`]; none: no blend). Pixels in `keep` are not blended (the user's
     /// constant-albedo and constant-shading strokes on the first frame, which the single-image
     /// decompositions do not see).
     pub fn fuse(

@@ -206,7 +206,9 @@ use crate::video::{
     segment::reflectance_clusters,
 };
 
-pub use fusion::FusionParams;
+pub use fusion::{
+    DEFAULT_CLUSTERING_MAX_PIXELS, DEFAULT_CLUSTERING_WEIGHT, DEFAULT_VIEW_WEIGHT, FusionParams,
+};
 pub use levels::{BorderLevelParams, LevelSummary};
 pub use sink::{FrameSink, FrameStats, OwnedFrame, VideoFrame, VideoStats};
 pub use state::PixelSource;

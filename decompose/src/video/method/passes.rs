@@ -19,8 +19,7 @@ use crate::video::propagate::{
 use super::complete::complete_frame;
 use super::first::FIRST_FRAME_SHARE;
 use super::fusion::members;
-use super::state::Member;
-use super::state::{FrameState, PixelSource, Scratch};
+use super::state::{FrameState, Member, PixelSource, Scratch};
 use super::{FrameStats, VideoParams};
 
 /// Everything a run keeps in memory besides the two or three frames being worked on: the

@@ -14,8 +14,7 @@ use crate::progress::{Progress, ProgressFn};
 use crate::retinex::Strokes;
 use crate::video::flow::{Flow, invert};
 
-use super::fusion::Fusion;
-use super::fusion::Members;
+use super::fusion::{Fusion, Members};
 use super::levels::{self, LevelSummary};
 use super::passes;
 use super::residual;
@@ -228,8 +227,6 @@ pub(crate) fn output(
     Ok(summary)
 }
 
-/// The flow from frame `t` back to `t − 1` for step 8: the cached backward flow, else the
-/// cached forward flow inverted, else (frame 0, or the no-flow ablation) the zero flow.
 /// Frame t's single-image shadings for step 8: from the scratch folder where
 /// [`passes::Run::cache_views`] put them, else computed now (with the time that took, ms).
 fn cached_members(
@@ -239,11 +236,16 @@ fn cached_members(
     dims: (u32, u32),
     img: &Image,
 ) -> Result<(Members, f64)> {
+    let load = |member, used: bool| {
+        if used {
+            run.scratch.load_member_shading(member, t, dims)
+        } else {
+            Ok(None)
+        }
+    };
     let mut members = Members {
-        view: run.scratch.load_member_shading(Member::View, t, dims)?,
-        clustering: run
-            .scratch
-            .load_member_shading(Member::Clustering, t, dims)?,
+        view: load(Member::View, params.uses_view())?,
+        clustering: load(Member::Clustering, params.uses_clustering())?,
     };
     let t0 = Instant::now();
     let mut computed = false;
@@ -260,15 +262,11 @@ fn cached_members(
     } else {
         0.0
     };
-    if !params.uses_view() {
-        members.view = None;
-    }
-    if !params.uses_clustering() {
-        members.clustering = None;
-    }
     Ok((members, took))
 }
 
+/// The flow from frame `t` back to `t − 1` for step 8: the cached backward flow, else the
+/// cached forward flow inverted, else (frame 0, or the no-flow ablation) the zero flow.
 fn back_flow(run: &passes::Run, t: usize, dims: (u32, u32)) -> Result<Flow> {
     if t == 0 {
         return Ok(Flow::zeros(dims.0, dims.1));
