@@ -12,7 +12,11 @@
 //! weight and bound at the current defaults, `--theta` that of the albedo cue's `θ_a`, `--beta`
 //! that of the reflectance filter's `β`, `--data-term` that of the data term's `γ`, `μ` and
 //! `κ_c`, `--toward-previous` the default with each choice that separates it from the defaults
-//! before the ninth session set back on its own, `--centre` the tie's `κ_c` from 0.1 up).
+//! before the ninth session set back on its own, `--centre` the tie's `κ_c` from 0.1 up,
+//! `--unlit-centre` the unlit rays' fill shared from the centre view off and on). The grids
+//! start from the default of the day they are run: since the twelfth session it shares the
+//! centre view's fill with unlit rays, so figures documented before differ on scenes with a
+//! large unlit shadow (scene81).
 //!
 //! The grid spans the choices that decide coherence and accuracy: the centre-view Retinex prior
 //! (`LightFieldParams::retinex_prior`), the sheared filter (`LightFieldParams::shear`), the
@@ -252,6 +256,21 @@ fn centre_grid() -> Vec<(String, LightFieldParams)> {
         .collect()
 }
 
+/// `--unlit-centre`: the unlit rays' fill shared from the centre view
+/// (`LightFieldParams::unlit_from_centre`) off and on, from the default.
+fn unlit_centre_grid() -> Vec<(String, LightFieldParams)> {
+    [false, true]
+        .into_iter()
+        .map(|on| {
+            let p = LightFieldParams {
+                unlit_from_centre: on,
+                ..Default::default()
+            };
+            (format!("unlit from centre {on}"), p)
+        })
+        .collect()
+}
+
 /// `--data-term`: the data term's `γ`, `μ` and `κ_c` (`method::data_term`), every other
 /// choice at its default. `γ` = 0 is the thesis' data term (then `κ_c` has no effect).
 fn data_term_grid() -> Vec<(String, LightFieldParams)> {
@@ -315,6 +334,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         beta_grid()
     } else if args.iter().any(|a| a == "--theta") {
         theta_grid()
+    } else if args.iter().any(|a| a == "--unlit-centre") {
+        unlit_centre_grid()
     } else if args.iter().any(|a| a == "--centre") {
         centre_grid()
     } else if args.iter().any(|a| a == "--crease-current") {

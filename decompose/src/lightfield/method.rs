@@ -361,6 +361,12 @@ pub fn decompose(
     )?;
     info.reflectance_filter = filter_info;
     lap(&mut info, "filter reflectance");
+    let mut log_r_hat = log_r_hat;
+    if params.unlit_from_centre
+        && let (Some(unlit), Some(disparity)) = (unlit.as_deref(), disparity)
+    {
+        unlit::share_centre_fill(lf, disparity, unlit, &mut log_r_hat);
+    }
     let (reflectance, shading_data) = layers::compose(lf, &s0, &log_r_hat, unlit.as_deref());
     let shading = LightField::from_vec(
         lf.rows(),
@@ -392,4 +398,5 @@ mod params;
 mod prior;
 #[cfg(test)]
 mod tests;
+mod unlit;
 mod weights;

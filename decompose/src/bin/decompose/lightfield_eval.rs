@@ -36,6 +36,8 @@ pub(crate) enum LfMethod {
     WhiteBlackCue,
     /// Ablation: black (unlit) rays as data, as in the thesis.
     NoUnlitFill,
+    /// Ablation: unlit rays keep their own view's fill (not the centre view's).
+    UnlitOwnFill,
     /// Ablation: the thesis' data term (one weight for every ray).
     ThesisDataTerm,
     /// Option: the centre view's Retinex as the per-view solves' level prior.
@@ -58,6 +60,7 @@ impl LfMethod {
             LfMethod::NoCreaseCue => "ours, no crease cue",
             LfMethod::WhiteBlackCue => "ours, with white/black cue",
             LfMethod::NoUnlitFill => "ours, unlit rays as data",
+            LfMethod::UnlitOwnFill => "ours, unlit rays filled view by view",
             LfMethod::ThesisDataTerm => "ours, thesis data term",
             LfMethod::RetinexPrior => "ours, centre Retinex prior",
             LfMethod::Shear => "ours, sheared filter",
@@ -186,6 +189,10 @@ pub(crate) fn run_eval_lightfield(a: EvalLightFieldArgs) -> Result<()> {
                 }),
                 LfMethod::NoUnlitFill => ours(LightFieldParams {
                     unlit_as_missing: false,
+                    ..Default::default()
+                }),
+                LfMethod::UnlitOwnFill => ours(LightFieldParams {
+                    unlit_from_centre: false,
                     ..Default::default()
                 }),
                 LfMethod::ThesisDataTerm => ours(LightFieldParams::thesis_data_term()),
