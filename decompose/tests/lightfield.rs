@@ -120,6 +120,7 @@ fn lightfield_writes_every_view_under_its_input_name() {
         "mu: 0.03",
         "crease_weight: 0.01",
         "crease_shading_step: Some(1.1)",
+        "unlit_from_centre: true",
     ] {
         assert!(
             forced_stats["params"].as_str().unwrap().contains(needle),
@@ -138,6 +139,7 @@ fn lightfield_writes_every_view_under_its_input_name() {
         os("--retinex-prior"),
         os("--white-black-cue"),
         os("--no-unlit-fill"),
+        os("--unlit-own-fill"),
         os("--no-crease-cue"),
         os("--dark-surfaces"),
     ]);
@@ -150,6 +152,7 @@ fn lightfield_writes_every_view_under_its_input_name() {
         "level_prior: CentreRetinex",
         "white_black_cue: true",
         "unlit_as_missing: false",
+        "unlit_from_centre: false",
         "crease_step: None",
         "gamma: 2.0",
         "centre_weight: 0.1",

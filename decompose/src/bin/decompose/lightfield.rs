@@ -89,6 +89,10 @@ pub(crate) struct LightFieldInputArgs {
     /// in from the surface around them.
     #[arg(long)]
     pub(crate) no_unlit_fill: bool,
+    /// Ablation: unlit rays keep the fill of their own view instead of taking the centre
+    /// view's at the point they show (the default before the twelfth session).
+    #[arg(long)]
+    pub(crate) unlit_own_fill: bool,
     /// Tie each view's shading levels to Zhao et al.'s Retinex of the centre view, carried to
     /// every view through the disparity, instead of to the intensity (the thesis).
     #[arg(long)]
@@ -171,6 +175,7 @@ impl LightFieldInputArgs {
         }
         p.white_black_cue = self.white_black_cue;
         p.unlit_as_missing = !self.no_unlit_fill;
+        p.unlit_from_centre &= !self.unlit_own_fill;
         if self.retinex_prior {
             p.level_prior = decompose::lightfield::method::LevelPrior::CentreRetinex;
         }
