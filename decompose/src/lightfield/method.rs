@@ -365,7 +365,7 @@ pub fn decompose(
     if params.unlit_from_centre
         && let (Some(unlit), Some(disparity)) = (unlit.as_deref(), disparity)
     {
-        unlit::share_centre_fill(lf, disparity, unlit, &mut log_r_hat);
+        unlit::share_centre_fill(lf, disparity, unlit, &mut log_r_hat)?;
     }
     let (reflectance, shading_data) = layers::compose(lf, &s0, &log_r_hat, unlit.as_deref());
     let shading = LightField::from_vec(

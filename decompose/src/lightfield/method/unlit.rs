@@ -12,7 +12,7 @@
 //! One point should have one reflectance, so each unlit ray of a view other than the centre
 //! takes the centre view's filled log reflectance at the point it shows: the ray's own
 //! disparity `d` gives the centre position ([`crate::lightfield::disparity::corresponding`]),
-//! sampled bilinearly, where all four centre neighbours have a disparity within
+//! sampled bilinearly ([`crate::lightfield::disparity::sample_bilinear`]), where all four centre neighbours have a disparity within
 //! [`SAME_SURFACE`] of `d` (the centre view sees the same surface) and are finite. Elsewhere
 //! (the point is hidden from the centre view, or outside it) the ray keeps its own fill. Lit
 //! rays, and the centre view, are not touched; `R × S = L` holds whatever an unlit ray's
@@ -20,8 +20,10 @@
 
 use rayon::prelude::*;
 
+use crate::error::{Error, Result};
+use crate::image::Image;
 use crate::lightfield::LightField;
-use crate::lightfield::disparity::corresponding;
+use crate::lightfield::disparity::{corresponding, sample_bilinear};
 
 /// Largest disparity difference (pixels per view step) for a centre pixel to show the same
 /// surface as a ray: the tolerance of the evaluation's visibility test
@@ -30,18 +32,28 @@ pub const SAME_SURFACE: f32 = 0.25;
 
 /// Replaces the log reflectance of every unlit ray outside the centre view by the centre
 /// view's at the point the ray shows (see the module docs). `log_r` and `unlit` hold one value
-/// per ray, view after view in `lf`'s order; `disparity` one channel per view.
+/// per ray, view after view in `lf`'s order; `disparity` one channel per view. Errors with
+/// [`Error::InvalidParam`] unless `log_r` and `unlit` hold one value per ray.
 pub(super) fn share_centre_fill(
     lf: &LightField,
     disparity: &LightField,
     unlit: &[bool],
     log_r: &mut [f32],
-) {
+) -> Result<()> {
     let (w, h) = (lf.width() as usize, lf.height() as usize);
     let n = w * h;
     let centre = (lf.rows() / 2, lf.cols() / 2);
     let c = lf.view_index(centre.0, centre.1);
-    let centre_log_r = log_r[c * n..(c + 1) * n].to_vec();
+    let rays = lf.views() * n;
+    if log_r.len() != rays || unlit.len() != rays {
+        return Err(Error::param(
+            "log_r",
+            log_r.len(),
+            "share_centre_fill needs one log reflectance and one unlit flag per ray",
+        ));
+    }
+    let centre_values = log_r[c * n..(c + 1) * n].to_vec();
+    let centre_log_r = Image::from_vec(lf.width(), lf.height(), 1, centre_values)?;
     let centre_disp = disparity.view_data(c);
     log_r
         .par_chunks_mut(n)
@@ -63,17 +75,15 @@ pub(super) fn share_centre_fill(
                 let corners = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)];
                 let same = corners.iter().all(|&(xx, yy)| {
                     let q = yy * w + xx;
-                    (centre_disp[q] - d).abs() <= SAME_SURFACE && centre_log_r[q].is_finite()
+                    (centre_disp[q] - d).abs() <= SAME_SURFACE && centre_log_r.data()[q].is_finite()
                 });
                 if !same {
                     continue;
                 }
-                let (tx, ty) = (sx - x0 as f32, sy - y0 as f32);
-                let at = |xx: usize, yy: usize| centre_log_r[yy * w + xx];
-                view_log_r[p] = (at(x0, y0) * (1.0 - tx) + at(x1, y0) * tx) * (1.0 - ty)
-                    + (at(x0, y1) * (1.0 - tx) + at(x1, y1) * tx) * ty;
+                sample_bilinear(&centre_log_r, sx, sy, &mut view_log_r[p..=p]);
             }
         });
+    Ok(())
 }
 
 #[cfg(test)]
@@ -97,7 +107,7 @@ mod tests {
             unlit[2 * w + p] = true; // view 2
         }
         unlit[w + 4] = true; // the centre's own unlit rays keep their fill
-        share_centre_fill(&lf, &disparity, &unlit, &mut log_r);
+        share_centre_fill(&lf, &disparity, &unlit, &mut log_r).unwrap();
         // View 0: x = 2, 3 show the centre's 1, 2; x = 7 shows 6, another surface: kept.
         assert_eq!(
             &log_r[..w],

@@ -274,13 +274,16 @@ pub(super) fn single_view_shading(frame: &Image, params: &LightFieldParams) -> R
 pub(super) fn clustering_shading(frame: &Image, params: &FusionParams) -> Result<Vec<f32>> {
     let (w, h) = frame.dims();
     let (sw, sh) = working_size(w, h, params.clustering_max_pixels);
-    if (sw, sh) == (w, h) {
-        let out = crate::clustering::decompose(frame, None, &params.clustering, &mut |_| {})?;
-        return Ok(out.decomposition.shading.into_vec());
+    let small = ((sw, sh) != (w, h)).then(|| frame.resize(sw, sh));
+    let input = small.as_ref().unwrap_or(frame);
+    let shading = crate::clustering::decompose(input, None, &params.clustering, &mut |_| {})?
+        .decomposition
+        .shading;
+    Ok(match small {
+        Some(_) => shading.resize(w, h),
+        None => shading,
     }
-    let small = frame.resize(sw, sh);
-    let out = crate::clustering::decompose(&small, None, &params.clustering, &mut |_| {})?;
-    Ok(out.decomposition.shading.resize(w, h).into_vec())
+    .into_vec())
 }
 
 /// The largest size of `w`×`h`'s aspect with at most `max_pixels` pixels (at least 1×1);

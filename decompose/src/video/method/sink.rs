@@ -243,26 +243,18 @@ fn cached_members(
             Ok(None)
         }
     };
-    let mut members = Members {
+    let cached = Members {
         view: load(Member::View, params.uses_view())?,
         clustering: load(Member::Clustering, params.uses_clustering())?,
     };
+    let complete = (cached.view.is_some() || !params.uses_view())
+        && (cached.clustering.is_some() || !params.uses_clustering());
+    if complete {
+        return Ok((cached, 0.0));
+    }
     let t0 = Instant::now();
-    let mut computed = false;
-    if params.uses_view() && members.view.is_none() {
-        members.view = Some(super::fusion::single_view_shading(img, &params.view)?);
-        computed = true;
-    }
-    if params.uses_clustering() && members.clustering.is_none() {
-        members.clustering = Some(super::fusion::clustering_shading(img, params)?);
-        computed = true;
-    }
-    let took = if computed {
-        t0.elapsed().as_secs_f64() * 1e3
-    } else {
-        0.0
-    };
-    Ok((members, took))
+    let fresh = super::fusion::members(img, params)?;
+    Ok((fresh, t0.elapsed().as_secs_f64() * 1e3))
 }
 
 /// The flow from frame `t` back to `t − 1` for step 8: the cached backward flow, else the
