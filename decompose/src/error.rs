@@ -138,6 +138,14 @@ pub enum Error {
         /// This frame's (width, height).
         got: (u32, u32),
     },
+    /// Every frame of a video is black: there is nothing to decompose.
+    #[error("every frame of {path} is black ({frames} frames): nothing to decompose")]
+    AllFramesBlack {
+        /// The folder or video file.
+        path: PathBuf,
+        /// How many frames it has.
+        frames: usize,
+    },
     /// `ffmpeg` could not decode a file (not a video, or a codec it lacks).
     #[error("ffmpeg cannot decode {path}: {message}")]
     Ffmpeg {

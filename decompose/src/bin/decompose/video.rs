@@ -71,8 +71,9 @@ struct PngSink<'a> {
     enc: Encoding,
     depth: Depth,
     linear_output: bool,
-    /// One shading scale for the whole video, 1 / (frame 0's largest shading), so that the
-    /// written shading does not flicker; later frames brighter than that clip in the PNGs.
+    /// One shading scale for the whole video, 1 / (the largest shading of the first frame with
+    /// light), so that the written shading does not flicker; later frames brighter than that
+    /// clip in the PNGs (`--linear-output` keeps every value).
     shading_scale: Option<f32>,
 }
 
@@ -86,9 +87,12 @@ impl PngSink<'_> {
             self.enc,
             self.depth,
         )?;
-        let scale = *self
-            .shading_scale
-            .get_or_insert_with(|| 1.0 / f.shading.max().max(f32::MIN_POSITIVE));
+        // Black frames (shading 0) before the first lit one leave the scale unset.
+        let largest = f.shading.max();
+        if self.shading_scale.is_none() && largest > 0.0 {
+            self.shading_scale = Some(1.0 / largest);
+        }
+        let scale = self.shading_scale.unwrap_or(1.0);
         io::save(
             file("shading", "png"),
             &f.shading.map(|v| v * scale),

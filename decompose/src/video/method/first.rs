@@ -1,10 +1,15 @@
 //! Steps 1 and 2 on the first frame: the Retinex of Zhao et al. with the user's strokes and
 //! local-threshold masks (§3.4), then the reflectance clusters and their tables `𝓡_k`, `𝓘_k`.
+//!
+//! "The first frame" is the first frame with light ([`first_lit_frame`]): a video that fades
+//! in from black, or opens on black leader, starts its decomposition at its first lit frame;
+//! the black frames before it are output black ([`FrameState::black`]).
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::progress::{Progress, ProgressFn};
 use crate::retinex::{self, Strokes};
+use crate::video::frames::FrameSource;
 use crate::video::propagate::ClusterTables;
 use crate::video::segment::reflectance_clusters;
 
@@ -40,3 +45,29 @@ pub(crate) fn first_frame(
 
 /// The share of the progress bar given to the first frame.
 pub(crate) const FIRST_FRAME_SHARE: f32 = 0.05;
+
+/// A frame whose brightest channel is at most this is black: it holds nothing to decompose (a
+/// fade, black leader, a cut through black). The single-image methods refuse such an image
+/// ([`Error::AllBlack`]) with the same threshold.
+pub(crate) const BLACK_LEVEL: f32 = 1e-6;
+
+/// Whether `frame` is black ([`BLACK_LEVEL`]).
+pub(crate) fn is_black(frame: &Image) -> bool {
+    frame.max() <= BLACK_LEVEL
+}
+
+/// The index and image of the first frame of `source` that is not black; frames are read in
+/// order until one is found, so an ordinary video reads only frame 0.
+/// [`Error::AllFramesBlack`] when every frame is black.
+pub(crate) fn first_lit_frame(source: &FrameSource) -> Result<(usize, Image)> {
+    for t in 0..source.len() {
+        let img = source.frame(t)?;
+        if !is_black(&img) {
+            return Ok((t, img));
+        }
+    }
+    Err(Error::AllFramesBlack {
+        path: source.input().to_path_buf(),
+        frames: source.len(),
+    })
+}

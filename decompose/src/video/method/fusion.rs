@@ -234,8 +234,12 @@ pub(crate) struct Members {
     pub clustering: Option<Vec<f32>>,
 }
 
-/// The single-image shadings of `frame` that `params` blends.
+/// The single-image shadings of `frame` that `params` blends; none for a black frame, which
+/// has nothing to decompose (and which the single-image methods refuse).
 pub(super) fn members(frame: &Image, params: &FusionParams) -> Result<Members> {
+    if super::first::is_black(frame) {
+        return Ok(Members::default());
+    }
     Ok(Members {
         view: params
             .uses_view()

@@ -337,8 +337,13 @@ pub struct Ablation {
 /// hands the final frames to `sink` in order. `scratch` is a folder for the per-frame state
 /// (created if missing; the caller deletes it).
 ///
+/// Black frames (module `first`) are not errors: they come out black, and a video that opens on
+/// black starts at its first lit frame ([`VideoStats::first_lit_frame`]), which is the frame
+/// the `strokes` are drawn on.
+///
 /// Errors: [`Error::InvalidParam`] for bad `params`; [`Error::ShapeMismatch`] for a stroke mask
-/// of another size than the frames; [`Error::Io`] when the scratch folder cannot be written;
+/// of another size than the frames; [`Error::AllFramesBlack`] when every frame is black;
+/// [`Error::Io`] when the scratch folder cannot be written;
 /// the frame source's errors naming the frame; the sink's errors; solver failures.
 pub fn decompose_video(
     source: &FrameSource,
@@ -374,12 +379,16 @@ pub fn decompose_video(
         .collect();
 
     let t0 = Instant::now();
-    let img0 = source.frame(0)?;
-    let (state0, tables) = first::first_frame(&img0, strokes, params, progress)?;
-    scratch.save_state(0, &state0)?;
-    drop((img0, state0));
+    let (first_lit, first_img) = first::first_lit_frame(source)?;
+    for (t, fs) in stats.iter_mut().enumerate().take(first_lit) {
+        scratch.save_state(t, &state::FrameState::black(dims.0, dims.1))?;
+        fs.black = true;
+    }
+    let (first_state, tables) = first::first_frame(&first_img, strokes, params, progress)?;
+    scratch.save_state(first_lit, &first_state)?;
+    drop((first_img, first_state));
     let first_frame_ms = t0.elapsed().as_secs_f64() * 1e3;
-    stats[0].complete_ms = first_frame_ms;
+    stats[first_lit].complete_ms = first_frame_ms;
 
     let mut run = passes::Run {
         source,
@@ -389,6 +398,7 @@ pub fn decompose_video(
         memo: crate::video::propagate::ReflectanceMemo::new(),
         stats,
         stopping: Vec::new(),
+        first_lit,
     };
     if n > 1 {
         for pass in 0..PropagateParams::PASS_WINDOWS.len() {
@@ -405,6 +415,7 @@ pub fn decompose_video(
         frames: run.stats,
         stopping_frames: stopping,
         first_frame_ms,
+        first_lit_frame: first_lit,
         total_ms: t_start.elapsed().as_secs_f64() * 1e3,
         views_ms,
         levels,

@@ -33,6 +33,8 @@ pub(crate) struct Run<'a> {
     pub memo: ReflectanceMemo,
     pub stats: Vec<FrameStats>,
     pub stopping: Vec<usize>,
+    /// The first frame with light, decomposed by step 1 (0 unless the video opens on black).
+    pub first_lit: usize,
 }
 
 /// The frame propagation starts from: its number, state and image.

@@ -14,6 +14,7 @@ use crate::progress::{Progress, ProgressFn};
 use crate::retinex::Strokes;
 use crate::video::flow::{Flow, invert};
 
+use super::first;
 use super::fusion::{Fusion, Members};
 use super::levels::{self, LevelSummary};
 use super::passes;
@@ -101,6 +102,9 @@ pub struct FrameStats {
     /// Step 8's blend and average along the flow on this frame (in the output), milliseconds;
     /// 0 when the step is off.
     pub fusion_ms: f64,
+    /// Whether the frame is black (a fade, black leader, a cut through black): its
+    /// reflectance and shading are output black, and step 8 blends nothing into it.
+    pub black: bool,
 }
 
 /// What happened in a [`super::decompose_video`] run.
@@ -111,8 +115,11 @@ pub struct VideoStats {
     /// The frames completed because propagation stopped there (§3.5.3) in any pass, in
     /// increasing order, each once.
     pub stopping_frames: Vec<usize>,
-    /// Steps 1–2 on frame 0, milliseconds.
+    /// Steps 1–2 on the first frame with light, milliseconds.
     pub first_frame_ms: f64,
+    /// The first frame with light, where steps 1–2 ran: 0 unless the video opens on black
+    /// frames, which are output black.
+    pub first_lit_frame: usize,
     /// The whole run, milliseconds.
     pub total_ms: f64,
     /// Wall time of step 8's single-image decompositions (all frames, several at a time),
@@ -149,7 +156,7 @@ pub(crate) fn output(
         }
         if run.params.levels.is_some() {
             evidence.add_frame(dims.0 as usize, &st.labels, &st.shading);
-            if t == 0 {
+            if t == run.first_lit {
                 let lum: Vec<f32> = (0..st.len()).map(|i| luminance(img.rgb(i))).collect();
                 evidence.add_strokes(dims.0 as usize, &st.labels, &st.shading, &lum, strokes);
             }
@@ -192,8 +199,14 @@ pub(crate) fn output(
     for t in 0..n {
         let img = run.source.frame(t)?;
         let mut st = run.scratch.load_state(t, dims)?;
+        if first::is_black(&img) {
+            // No light, so no reflectance to speak of: both layers black (R × S = I = 0),
+            // whatever completion made of the frame.
+            st.shading.fill(0.0);
+            run.stats[t].black = true;
+        }
         levels::apply(&st.labels, &mut st.shading, &delta);
-        if t == 0 && !delta.is_empty() {
+        if t == run.first_lit && !delta.is_empty() {
             // Back on the first frame's scale: its 99.5th percentile of reflectance is 1 again
             // (one factor for the whole video, left out of `mean_abs_offset`).
             if let Some(q) = white_point(&st.reflectance(&img), |_| true) {
@@ -204,7 +217,7 @@ pub(crate) fn output(
         if let Some(fusion) = fusion.as_mut() {
             let t0 = Instant::now();
             let back = back_flow(run, t, dims)?;
-            let keep = stroked.as_deref().filter(|_| t == 0);
+            let keep = stroked.as_deref().filter(|_| t == run.first_lit);
             let (members, view_ms) = cached_members(run, fusion.params(), t, dims, &img)?;
             fusion.fuse(&img, &mut st.shading, &back, &members, keep)?;
             run.stats[t].view_ms += view_ms;

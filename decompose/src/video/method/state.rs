@@ -72,6 +72,19 @@ impl FrameState {
         }
     }
 
+    /// A black frame before the first lit one (module `first`): every pixel decided, with
+    /// no cluster and no light (shading 0, reflectance 0), counted as completion.
+    pub fn black(width: u32, height: u32) -> Self {
+        let n = width as usize * height as usize;
+        Self {
+            width,
+            height,
+            labels: vec![Labels::NONE; n],
+            source: vec![PixelSource::Completion; n],
+            shading: vec![0.0; n],
+        }
+    }
+
     pub fn len(&self) -> usize {
         self.labels.len()
     }
@@ -103,11 +116,11 @@ impl FrameState {
         }
     }
 
-    /// `input / shading` per channel where assigned, 0 elsewhere.
+    /// `input / shading` per channel where assigned and lit, 0 elsewhere.
     pub fn reflectance(&self, input: &Image) -> Image {
         let mut r = Image::new(self.width, self.height, 3);
         for i in 0..self.len() {
-            if self.source[i] != PixelSource::Unassigned {
+            if self.source[i] != PixelSource::Unassigned && self.shading[i] > 0.0 {
                 let s = self.shading[i];
                 r.px_mut(i).copy_from_slice(&input.rgb(i).map(|v| v / s));
             }

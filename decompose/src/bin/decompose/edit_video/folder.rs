@@ -4,13 +4,14 @@
 //! DIR/reflectance/000000.png …   reflectance frames (sRGB unless stats.json says linear)
 //! DIR/shading/000000.png …       shading frames (grey; scaled as stats.json says)
 //! DIR/labels/000000.png …        16-bit grey PNG: cluster id + 1, 0 = unassigned
-//! DIR/stats.json                 optional: output_encoding, shading_scale
+//! DIR/stats.json                 optional: output_encoding, shading_scale, first_lit_frame
 //! ```
 //!
 //! The three folders must hold the same frames (same count, same names, same size). From
 //! `stats.json`, when present: `"output_encoding": "linear"` reads the PNGs as linear
 //! samples, and the shading files are multiplied back by `"shading_scale"` (one number for the
-//! whole video, or `frames[i].shading_scale` per frame), so that `R × S` is the input again.
+//! whole video, or `frames[i].shading_scale` per frame), so that `R × S` is the input again;
+//! `"first_lit_frame"` is the frame the edits are decided on (0 without it).
 
 use std::path::{Path, PathBuf};
 
@@ -43,6 +44,7 @@ pub(crate) struct VideoFolder {
     shading: FrameSource,
     labels: FrameSource,
     shading_scale: Vec<f32>,
+    first_lit: usize,
 }
 
 fn open_sub(dir: &Path, sub: &str, load: LoadOptions) -> Result<FrameSource> {
@@ -130,12 +132,21 @@ impl VideoFolder {
         }
         let shading_scale = shading_scales(stats.as_ref(), n)
             .with_context(|| format!("reading {}", stats_path.display()))?;
+        let first_lit = first_lit_frame(stats.as_ref(), n)
+            .with_context(|| format!("reading {}", stats_path.display()))?;
         Ok(Self {
             reflectance,
             shading,
             labels,
             shading_scale,
+            first_lit,
         })
+    }
+
+    /// The frame the edits are decided on: the first frame with light, where the
+    /// decomposition started (frame 0 unless the video opens on black frames).
+    pub(crate) fn first_lit(&self) -> usize {
+        self.first_lit
     }
 
     pub(crate) fn len(&self) -> usize {
@@ -215,4 +226,16 @@ fn shading_scales(stats: Option<&serde_json::Value>, n: usize) -> Result<Vec<f32
 /// The path of output frame `i`.
 pub(crate) fn frame_name(i: usize) -> PathBuf {
     PathBuf::from(format!("{i:06}.png"))
+}
+
+/// `first_lit_frame` from stats.json (0 without it or without stats.json).
+fn first_lit_frame(stats: Option<&serde_json::Value>, n: usize) -> Result<usize> {
+    let value = stats.map(|s| &s["first_lit_frame"]);
+    match value {
+        None | Some(serde_json::Value::Null) => Ok(0),
+        Some(v) => match v.as_u64() {
+            Some(t) if (t as usize) < n => Ok(t as usize),
+            _ => bail!("first_lit_frame = {v} is not a frame number below {n}"),
+        },
+    }
 }

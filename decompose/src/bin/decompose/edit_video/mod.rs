@@ -1,6 +1,7 @@
 //! `decompose edit video-*`: the video edits of `decompose::video::edit` on the output folder
-//! of `decompose video`. Each edit is decided once (strokes and colours on frame 0, the
-//! cluster table of the whole video) and applied to every frame through its labels; the
+//! of `decompose video`. Each edit is decided once (strokes and colours on the first lit frame
+//! — frame 0 unless the video opens on black frames, `stats.json`'s `first_lit_frame` — and
+//! the cluster table of the whole video) and applied to every frame through its labels; the
 //! edited frames go to `OUT/000000.png …` (display-gamma PNG), with `OUT/edit.json` recording
 //! what was decided, and optionally a video through the system's ffmpeg. The folder is
 //! written under a temporary name and moved into place at the end.
@@ -55,31 +56,33 @@ pub(crate) struct VideoEditIo {
 
 #[derive(Subcommand)]
 pub(crate) enum VideoEdit {
-    /// Cut out the clusters chosen by foreground/background strokes on frame 0; writes the
-    /// cutout frames and matte/000000.png ….
+    /// Cut out the clusters chosen by foreground/background strokes on the first lit frame
+    /// (frame 0 unless the video opens on black); writes the cutout frames and
+    /// matte/000000.png ….
     #[command(name = "video-segment")]
     Segment {
         #[command(flatten)]
         io: VideoEditIo,
-        /// Foreground stroke mask on frame 0 (white = stroke); repeatable.
+        /// Foreground stroke mask on the first lit frame (white = stroke); repeatable.
         #[arg(long, required = true)]
         fg: Vec<PathBuf>,
-        /// Background stroke mask on frame 0; repeatable.
+        /// Background stroke mask on the first lit frame; repeatable.
         #[arg(long, required = true)]
         bg: Vec<PathBuf>,
     },
-    /// Recolour the clusters under scribbles on frame 0: each MASK=COLOUR (sRGB hex, e.g.
-    /// strokes.png=#3060c0) maps its clusters' mean reflectance to that colour.
+    /// Recolour the clusters under scribbles on the first lit frame: each MASK=COLOUR (sRGB
+    /// hex, e.g. strokes.png=#3060c0) maps its clusters' mean reflectance to that colour.
     #[command(name = "video-recolour")]
     Recolour {
         #[command(flatten)]
         io: VideoEditIo,
-        /// A scribble mask on frame 0 and its target reflectance, MASK=#rrggbb; repeatable.
+        /// A scribble mask on the first lit frame and its target reflectance, MASK=#rrggbb;
+        /// repeatable.
         #[arg(long, required = true)]
         scribble: Vec<String>,
     },
     /// Histogram-match the reflectance to the colours of a source image (mapping fitted on
-    /// frame 0, the same for every frame).
+    /// the first lit frame, the same for every frame).
     #[command(name = "video-transfer")]
     Transfer {
         #[command(flatten)]
@@ -89,8 +92,8 @@ pub(crate) enum VideoEdit {
         #[arg(long)]
         source: PathBuf,
     },
-    /// Saturation change, shading flattened towards frame 0's mean, and edges on cluster
-    /// boundaries.
+    /// Saturation change, shading flattened towards the first lit frame's mean, and edges on
+    /// cluster boundaries.
     #[command(name = "video-stylise")]
     Stylise {
         #[command(flatten)]
@@ -99,7 +102,7 @@ pub(crate) enum VideoEdit {
         style: StyliseArgs,
     },
     /// Remap the shading of chosen clusters (or all) through a curve "x:y,x:y,..." in units of
-    /// frame 0's largest shading.
+    /// the first lit frame's largest shading.
     #[command(name = "video-material")]
     Material {
         #[command(flatten)]
@@ -110,7 +113,7 @@ pub(crate) enum VideoEdit {
         /// Cluster ids to edit, e.g. "3,7" (the labels/ values minus one).
         #[arg(long, value_delimiter = ',', conflicts_with = "region")]
         clusters: Vec<u32>,
-        /// Region on frame 0 (mask): edit the clusters it touches.
+        /// Region on the first lit frame (mask): edit the clusters it touches.
         #[arg(long)]
         region: Option<PathBuf>,
     },
@@ -248,7 +251,7 @@ fn decide(
                 None => Some(clusters.clone()),
             };
             if chosen.as_ref().is_some_and(Vec::is_empty) {
-                bail!("the region touches no assigned pixel of frame 0");
+                bail!("the region touches no assigned pixel of the first lit frame");
             }
             let m = MaterialEdit::fit(&f0, curve, chosen.as_deref())?;
             let info = serde_json::json!({ "clusters": chosen, "shading_scale": m.scale() });
@@ -308,7 +311,10 @@ pub(crate) fn run_edit_video(e: VideoEdit) -> Result<()> {
     let n = folder.len();
     let needs_table = matches!(e, VideoEdit::Segment { .. } | VideoEdit::Recolour { .. });
     let pb = progress(io_args.quiet, if needs_table { 2 * n } else { n });
-    let first = folder.frame(0).context("reading frame 0")?;
+    let key = folder.first_lit();
+    let first = folder
+        .frame(key)
+        .with_context(|| format!("reading frame {key}, the first lit frame"))?;
     let (decided, info) = decide(&e, &folder, &first, &pb)?;
     let staged = StagedFolder::new(&io_args.out, io_args.force)?;
     if matches!(decided, Decided::Segment(_)) {
@@ -316,7 +322,11 @@ pub(crate) fn run_edit_video(e: VideoEdit) -> Result<()> {
     }
     pb.set_message("editing");
     for i in 0..n {
-        let layers = if i == 0 { None } else { Some(folder.frame(i)?) };
+        let layers = if i == key {
+            None
+        } else {
+            Some(folder.frame(i)?)
+        };
         let layers = layers.as_ref().unwrap_or(&first);
         decided.write(&staged.staging, i, &layers.frame()?)?;
         pb.inc(1);
@@ -331,6 +341,7 @@ pub(crate) fn run_edit_video(e: VideoEdit) -> Result<()> {
     }
     .into();
     info["frames"] = n.into();
+    info["decided_on_frame"] = key.into();
     info["input"] = io_args.dir.display().to_string().into();
     std::fs::write(
         staged.staging.join("edit.json"),

@@ -140,6 +140,7 @@ fn per_frame_retinex(frames: &[Image]) -> Vec<crate::Decomposition> {
         .collect()
 }
 
+mod black;
 mod equations;
 mod fixture;
 mod fusion;
