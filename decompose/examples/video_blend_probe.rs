@@ -14,6 +14,10 @@
 //! the flow) and prints one line per setting: sequence, setting, mean LMSE, flicker (the true
 //! flow). `time SEQ_DIR -` and `synth - -` time the members on an 800×600 frame (a rendered
 //! one scaled up; the synthetic `bench --video` sequence).
+//!
+//! Thirteenth session: `MEDIAN=1 … grid` scores only the default's blend with 0, half or all of
+//! it replaced by the per-pixel median of its members; `MEDIAN=2 … grid`, the median over more
+//! members (Zhao's Retinex and the clustering method at half size) with the default's mean.
 
 use std::path::{Path, PathBuf};
 
@@ -149,15 +153,74 @@ fn median(mut v: Vec<f32>) -> f32 {
     *v.select_nth_unstable_by(k, f32::total_cmp).1
 }
 
+/// The median, the mean of the middle two for an even count (as `fusion::blend`).
+fn middle(mut v: Vec<f32>) -> f32 {
+    v.sort_by(f32::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
 /// One blend: weights per member (index into MEMBERS), α, gate.
 struct Setting {
     name: String,
     weights: Vec<(usize, f32)>,
     alpha: f32,
     gate: f32,
+    /// Weight of the per-pixel median of the (shifted) members in `weights` against their
+    /// weighted mean (thirteenth session): 0 is the weighted mean of step 8.
+    median_share: f32,
+    /// Members (index into MEMBERS) in the median besides those of `weights`.
+    median_extra: Vec<usize>,
 }
 
 fn settings() -> Vec<Setting> {
+    if std::env::var("MEDIAN").is_ok_and(|m| m == "2") {
+        // Thirteenth session, second rule: more members in the median only (the mean keeps
+        // the default's three).
+        let mut out = Vec::new();
+        for (extra, shares) in [
+            (vec![], &[0.5f32][..]),
+            (vec![4], &[0.5, 1.0][..]),
+            (vec![6], &[0.5, 1.0][..]),
+            (vec![4, 6], &[0.5, 1.0][..]),
+            (vec![3], &[0.5][..]),
+        ] {
+            for &share in shares {
+                let names: Vec<&str> = extra.iter().map(|&m| MEMBERS[m]).collect();
+                out.push(Setting {
+                    name: format!(
+                        "prop=0.50,view=0.40,clu=0.10 a=0.1 med={share} extra={}",
+                        names.join("+")
+                    ),
+                    weights: vec![(1, 0.5), (2, 0.4), (5, 0.1)],
+                    alpha: 0.1,
+                    gate: 0.1,
+                    median_share: share,
+                    median_extra: extra.clone(),
+                });
+            }
+        }
+        return out;
+    }
+    if std::env::var("MEDIAN").is_ok() {
+        // Thirteenth session: the default blend, the median of its three members, and half
+        // of each (`/work/exp/s13/prereg.txt`).
+        return [0.0f32, 0.5, 1.0]
+            .into_iter()
+            .map(|share| Setting {
+                name: format!("prop=0.50,view=0.40,clu=0.10 a=0.1 med={share}"),
+                weights: vec![(1, 0.5), (2, 0.4), (5, 0.1)],
+                alpha: 0.1,
+                gate: 0.1,
+                median_share: share,
+                median_extra: Vec::new(),
+            })
+            .collect();
+    }
     let mut out = Vec::new();
     let mut add = |weights: Vec<(usize, f32)>, alpha: f32| {
         let name = weights
@@ -171,6 +234,8 @@ fn settings() -> Vec<Setting> {
             weights,
             alpha,
             gate: 0.1,
+            median_share: 0.0,
+            median_extra: Vec::new(),
         });
     };
     for m in 0..MEMBERS.len() {
@@ -275,6 +340,7 @@ fn grid(seq: &Path, cache: &Path) -> Res<()> {
             let li = &log_i[t];
             let reference = &mem[1][t];
             let mut sb = vec![0.0f32; li.len()];
+            let mut shifted: Vec<Vec<f32>> = Vec::new();
             for &(m, wt) in &s.weights {
                 if wt == 0.0 {
                     continue;
@@ -294,6 +360,27 @@ fn grid(seq: &Path, cache: &Path) -> Res<()> {
                 };
                 for (o, &v) in sb.iter_mut().zip(sm) {
                     *o += wt * (ln(v) - shift);
+                }
+                if s.median_share > 0.0 {
+                    shifted.push(sm.iter().map(|&v| ln(v) - shift).collect());
+                }
+            }
+            for &m in &s.median_extra {
+                let sm = &mem[m][t];
+                let shift = median(
+                    sm.iter()
+                        .zip(reference)
+                        .zip(li)
+                        .filter(|(_, l)| l.is_finite())
+                        .map(|((&a, &b), _)| ln(a) - ln(b))
+                        .collect(),
+                );
+                shifted.push(sm.iter().map(|&v| ln(v) - shift).collect());
+            }
+            if s.median_share > 0.0 {
+                for (p, o) in sb.iter_mut().enumerate() {
+                    let mid = middle(shifted.iter().map(|m| m[p]).collect());
+                    *o = (1.0 - s.median_share) * *o + s.median_share * mid;
                 }
             }
             let d: Vec<f32> = li.iter().zip(&sb).map(|(i, s)| i - s).collect();

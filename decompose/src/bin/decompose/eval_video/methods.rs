@@ -44,7 +44,8 @@ impl Runner {
 }
 
 /// The runs asked for: the methods in a fixed order, then with `ablations` the three
-/// ablations of Fig. 3.11, the method without its per-frame blend (step 8), without its border
+/// ablations of Fig. 3.11, the method without its per-frame blend (step 8), with the eighth and
+/// the twelfth sessions' blends, without its border
 /// levelling (the thesis' levels), without the single views' vote on those levels, with the
 /// thesis' confidence test and with the thesis' exact colour bins.
 pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
@@ -111,6 +112,17 @@ pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
                     fusion: Some(FusionParams {
                         beta: 0.5,
                         clustering_weight: 0.0,
+                        median_share: 0.0,
+                        ..Default::default()
+                    }),
+                    ..Default::default()
+                }),
+            ),
+            Runner::Ours(
+                "ours, weighted mean of the members (twelfth-session blend)",
+                Box::new(VideoParams {
+                    fusion: Some(FusionParams {
+                        median_share: 0.0,
                         ..Default::default()
                     }),
                     ..Default::default()

@@ -72,25 +72,25 @@ fn the_blend_is_on_the_propagated_scale_and_keeps_stroked_pixels() {
     let s: Vec<f32> = (0..n).map(|p| 0.2 + p as f32 / 60.0).collect();
     let v: Vec<f32> = (0..n).map(|p| 0.5 + ((p * 7) % 11) as f32 / 20.0).collect();
     let log_i = vec![0.0f32; n];
-    let a = blend(&s, &[(&v, 0.6)], &log_i, None);
+    let a = blend(&s, &[(&v, 0.6)], 0.0, &log_i, None);
     // The view's own scale does not matter: it is moved to the propagated one.
     let v7: Vec<f32> = v.iter().map(|x| 7.0 * x).collect();
-    let b = blend(&s, &[(&v7, 0.6)], &log_i, None);
+    let b = blend(&s, &[(&v7, 0.6)], 0.0, &log_i, None);
     for (x, y) in a.iter().zip(&b) {
         assert!((x - y).abs() < 1e-5, "{x} {y}");
     }
     // β = 0 is the propagated shading; β = 1 the view's, whose median log ratio to the
     // propagated one is then 0.
-    let zero = blend(&s, &[(&v, 0.0)], &log_i, None);
-    assert!(blend(&s, &[], &log_i, None) == zero);
+    let zero = blend(&s, &[(&v, 0.0)], 0.0, &log_i, None);
+    assert!(blend(&s, &[], 0.0, &log_i, None) == zero);
     assert!(zero.iter().zip(&s).all(|(z, s)| (z - s.ln()).abs() < 1e-6));
-    let one = blend(&s, &[(&v, 1.0)], &log_i, None);
+    let one = blend(&s, &[(&v, 1.0)], 0.0, &log_i, None);
     let mut ratio: Vec<f32> = one.iter().zip(&s).map(|(o, s)| o - s.ln()).collect();
     ratio.sort_by(f32::total_cmp);
     assert!(ratio[n / 2].abs() < 1e-6, "median {}", ratio[n / 2]);
     // Kept pixels are the propagated shading.
     let keep: Vec<bool> = (0..n).map(|p| p < 10).collect();
-    let kept = blend(&s, &[(&v, 0.6)], &log_i, Some(&keep));
+    let kept = blend(&s, &[(&v, 0.6)], 0.0, &log_i, Some(&keep));
     for p in 0..n {
         let expected = if p < 10 { s[p].ln() } else { a[p] };
         assert!((kept[p] - expected).abs() < 1e-6);
@@ -98,10 +98,10 @@ fn the_blend_is_on_the_propagated_scale_and_keeps_stroked_pixels() {
     // Two members: each moved to the propagated scale on its own, then weighted; the
     // propagated shading keeps 1 − 0.4 − 0.1.
     let c: Vec<f32> = (0..n).map(|p| 3.0 + ((p * 3) % 7) as f32).collect();
-    let both = blend(&s, &[(&v, 0.4), (&c, 0.1)], &log_i, None);
+    let both = blend(&s, &[(&v, 0.4), (&c, 0.1)], 0.0, &log_i, None);
     let (bv, bc) = (
-        blend(&s, &[(&v, 1.0)], &log_i, None),
-        blend(&s, &[(&c, 1.0)], &log_i, None),
+        blend(&s, &[(&v, 1.0)], 0.0, &log_i, None),
+        blend(&s, &[(&c, 1.0)], 0.0, &log_i, None),
     );
     for p in 0..n {
         let expected = 0.5 * s[p].ln() + 0.4 * bv[p] + 0.1 * bc[p];
@@ -109,6 +109,48 @@ fn the_blend_is_on_the_propagated_scale_and_keeps_stroked_pixels() {
             (both[p] - expected).abs() < 1e-5,
             "{p}: {} {expected}",
             both[p]
+        );
+    }
+}
+
+#[test]
+fn the_median_share_mixes_the_per_pixel_median_of_the_members_into_the_mean() {
+    let n = 40;
+    let s: Vec<f32> = (0..n).map(|p| 0.3 + p as f32 / 50.0).collect();
+    let v: Vec<f32> = (0..n).map(|p| 0.5 + ((p * 7) % 11) as f32 / 20.0).collect();
+    let c: Vec<f32> = (0..n).map(|p| 2.0 + ((p * 3) % 7) as f32).collect();
+    let log_i = vec![0.0f32; n];
+    let members = [(&v[..], 0.4), (&c[..], 0.1)];
+    let mean = blend(&s, &members, 0.0, &log_i, None);
+    let median = blend(&s, &members, 1.0, &log_i, None);
+    let half = blend(&s, &members, 0.5, &log_i, None);
+    // Each member on the propagated scale on its own (weight 1, no median): its moved log
+    // shading; the median of three is then the middle one, found here by sorting.
+    let moved_v = blend(&s, &[(&v, 1.0)], 0.0, &log_i, None);
+    let moved_c = blend(&s, &[(&c, 1.0)], 0.0, &log_i, None);
+    for p in 0..n {
+        let mut three = [s[p].ln(), moved_v[p], moved_c[p]];
+        three.sort_by(f32::total_cmp);
+        assert!(
+            (median[p] - three[1]).abs() < 1e-5,
+            "{p}: {} {}",
+            median[p],
+            three[1]
+        );
+        let expected = 0.5 * mean[p] + 0.5 * three[1];
+        assert!((half[p] - expected).abs() < 1e-5, "{p}");
+    }
+    // The median differs from the mean somewhere (the members disagree), and a member of
+    // weight 0 takes no part in it: the median of the propagated shading alone is itself.
+    assert!(mean.iter().zip(&median).any(|(a, b)| (a - b).abs() > 1e-3));
+    let alone = blend(&s, &[(&v, 0.0)], 1.0, &log_i, None);
+    assert!(alone.iter().zip(&s).all(|(a, s)| (a - s.ln()).abs() < 1e-6));
+    // Two values (one member): the median is their mean.
+    let two = blend(&s, &[(&v, 0.4)], 1.0, &log_i, None);
+    for p in 0..n {
+        assert!(
+            (two[p] - 0.5 * (s[p].ln() + moved_v[p])).abs() < 1e-5,
+            "{p}"
         );
     }
 }
@@ -134,6 +176,7 @@ fn the_blend_keeps_the_product_and_lowers_the_flicker_of_each_single_image_membe
             beta: 1.0,
             clustering_weight: 0.0,
             alpha: 1.0,
+            median_share: 0.0,
             ..Default::default()
         }),
         ..params()
@@ -143,6 +186,7 @@ fn the_blend_keeps_the_product_and_lowers_the_flicker_of_each_single_image_membe
             beta: 0.0,
             clustering_weight: 1.0,
             alpha: 1.0,
+            median_share: 0.0,
             ..Default::default()
         }),
         ..params()
@@ -189,6 +233,10 @@ fn fusion_parameters_are_checked() {
         },
         FusionParams {
             gate: f32::NAN,
+            ..Default::default()
+        },
+        FusionParams {
+            median_share: 1.5,
             ..Default::default()
         },
         FusionParams {
