@@ -1,7 +1,8 @@
 //! `decompose video` on footage that opens on black (black leader, a fade from black): the
 //! black frames come out black, the shading PNGs keep the scale of the first lit frame, and
-//! `stats.json` says which frames were black. Through the real binary, on the committed tiny
-//! sequence (`fixtures/video/tiny`) with two black frames put in front.
+//! `stats.json` says which frames were black; the edits are decided on the first lit frame;
+//! `decompose eval-video --real` scores footage with a cut through black. Through the real
+//! binary, on the committed tiny sequence (`fixtures/video/tiny`) with black frames put in.
 
 use std::path::{Path, PathBuf};
 
@@ -199,4 +200,55 @@ fn an_all_black_video_is_a_clear_error_and_leaves_no_output() {
         "{err}"
     );
     assert!(!out.exists());
+}
+
+#[test]
+fn eval_video_scores_footage_with_a_cut_through_black() {
+    // The fixture with its frame 4 replaced by black: every method outputs that frame black,
+    // and the flicker leaves out the two pairs around it.
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("cut");
+    std::fs::create_dir_all(&frames).unwrap();
+    for t in 0..8 {
+        let to = frames.join(format!("{t:06}.png"));
+        if t == 4 {
+            decompose::io::save_rgb8(&to, 64, 48, vec![0; 64 * 48 * 3]).unwrap();
+        } else {
+            std::fs::copy(tiny_input().join(format!("{t:06}.png")), &to).unwrap();
+        }
+    }
+    let json = dir.path().join("scores.json");
+    let o = decompose(&[
+        os("eval-video"),
+        os("--real"),
+        frames.as_os_str(),
+        os("--json"),
+        json.as_os_str(),
+        os("--contact-sheet"),
+        dir.path().join("sheet.png").as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let scores: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let text = scores.to_string();
+    for method in ["ours", "per-frame retinex", "per-frame clustering"] {
+        let m = scores
+            .as_object()
+            .unwrap()
+            .values()
+            .find_map(|seq| seq["methods"].get(method))
+            .unwrap_or_else(|| panic!("no {method} in {text}"));
+        let pairs = m["flicker_pairs"].as_array().unwrap();
+        assert_eq!(pairs.len(), 7, "{method}");
+        assert!(
+            pairs[3].is_null() && pairs[4].is_null(),
+            "{method}: {pairs:?}"
+        );
+        assert!(
+            pairs.iter().filter(|p| !p.is_null()).count() == 5,
+            "{method}"
+        );
+        let flicker = m["flicker"].as_f64().unwrap();
+        assert!(flicker.is_finite() && flicker > 0.0, "{method}: {flicker}");
+    }
 }

@@ -16,9 +16,10 @@ use std::time::Instant;
 use crate::clustering::{self, ClusteringParams};
 use crate::decomposition::{Decomposition, Labels};
 use crate::error::{Error, Result};
+use crate::image::Image;
 use crate::progress::{Progress, ProgressFn};
 use crate::retinex::{self, RetinexParams, Strokes};
-use crate::video::frames::FrameSource;
+use crate::video::frames::{FrameSource, is_black};
 
 /// Which single-image method decomposes every frame.
 #[derive(Clone, Debug, PartialEq)]
@@ -48,11 +49,27 @@ impl PerFrameMethod {
         }
     }
 
-    /// Decomposes one image (linear RGB) with this method; the clusters for clustering.
+    /// Decomposes one image (linear RGB) with this method; the clusters for clustering. A
+    /// black frame ([`is_black`]: a fade, a cut through black) has nothing to decompose and
+    /// comes out black, reflectance and shading 0 (and no cluster), as in the video method.
     pub fn decompose(
         &self,
         frame: &crate::image::Image,
     ) -> Result<(Decomposition, Option<Labels>)> {
+        if is_black(frame) {
+            let (w, h) = frame.dims();
+            let black = Decomposition {
+                reflectance: Image::new(w, h, 3),
+                shading: Image::new(w, h, 1),
+            };
+            let labels = matches!(self, Self::Clustering(_)).then(|| Labels {
+                width: w,
+                height: h,
+                data: vec![Labels::NONE; w as usize * h as usize],
+                count: 0,
+            });
+            return Ok((black, labels));
+        }
         match self {
             Self::Retinex(p) => {
                 retinex::decompose(frame, None, &Strokes::default(), p, &mut |_| {})
@@ -184,6 +201,29 @@ mod tests {
             assert_eq!(seen, vec![0, 1, 2]);
             assert_eq!(stats.frame_ms.len(), 3);
             assert_eq!(stats.method, method.name());
+        }
+    }
+
+    #[test]
+    fn a_black_frame_comes_out_black_with_no_cluster() {
+        let black = crate::image::Image::new(8, 6, 3);
+        for m in [PerFrameMethod::retinex(), PerFrameMethod::clustering()] {
+            let (d, labels) = m.decompose(&black).unwrap();
+            assert!(
+                d.reflectance.data().iter().all(|&v| v == 0.0),
+                "{}",
+                m.name()
+            );
+            assert!(d.shading.data().iter().all(|&v| v == 0.0), "{}", m.name());
+            assert_eq!(d.reflectance.channels(), 3);
+            assert_eq!(d.shading.channels(), 1);
+            match labels {
+                Some(l) => {
+                    assert_eq!(m.name(), "clustering");
+                    assert!(l.data.iter().all(|&v| v == Labels::NONE));
+                }
+                None => assert_eq!(m.name(), "retinex"),
+            }
         }
     }
 }

@@ -50,9 +50,13 @@ fn to_rgba(img: &Image, scale: f32) -> RgbaImage {
     out
 }
 
-/// Tile size so that `cols` tiles of the view's aspect fit in `max_width` pixels.
+/// Tile size so that `cols` tiles of the view's aspect fit in `max_width` pixels: at least 8
+/// pixels wide, at most the view's width (a view narrower than 8 pixels keeps its width).
 fn tile_size(lf: &LightField, cols: usize, max_width: u32) -> (u32, u32) {
-    let tw = (max_width / cols.max(1) as u32).clamp(8, lf.width());
+    let tw = (max_width / cols.max(1) as u32)
+        .max(8)
+        .min(lf.width())
+        .max(1);
     let th = ((tw as f32 * lf.height() as f32 / lf.width() as f32).round() as u32).max(1);
     (tw, th)
 }
@@ -180,5 +184,21 @@ mod tests {
         let frames = decoder.into_frames().collect_frames().unwrap();
         assert_eq!(frames.len(), 6);
         assert_eq!(frames[0].buffer().dimensions(), (20, 8));
+    }
+
+    #[test]
+    fn views_narrower_than_a_tile_keep_their_size_on_the_sheet_and_in_the_gif() {
+        // 1×1 and 5×3 views: the sheet's smallest tile is 8 pixels, but views are never
+        // enlarged (this used to panic: a clamp to [8, width] with width < 8).
+        for (w, h) in [(1u32, 1u32), (5, 3)] {
+            let views: Vec<Image> = (0..4)
+                .map(|_| Image::from_fn::<3>(w, h, |_, _| [0.5, 0.5, 0.5]))
+                .collect();
+            let lf = LightField::from_views(2, 2, &views).unwrap();
+            let sheet = contact_sheet(&lf, 1.0, 1800);
+            assert_eq!(sheet.dimensions(), (2 * w + 2, 2 * h + 2));
+            let dir = tempfile::tempdir().unwrap();
+            write_animation(&dir.path().join("views.gif"), &[(&lf, 1.0)], 400, 80).unwrap();
+        }
     }
 }

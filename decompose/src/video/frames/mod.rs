@@ -29,6 +29,17 @@ use crate::lightfield::io::natural_cmp;
 /// File extensions taken as frames in a folder (compared in lower case).
 pub const FRAME_EXTENSIONS: [&str; 5] = ["png", "jpg", "jpeg", "tif", "tiff"];
 
+/// A frame whose brightest channel is at most this is black: it holds nothing to decompose (a
+/// fade, black leader, a cut through black). The single-image methods refuse such an image
+/// ([`Error::AllBlack`]) with the same threshold; the video method and the per-frame
+/// baselines output it black.
+pub const BLACK_LEVEL: f32 = 1e-6;
+
+/// Whether `frame` is black ([`BLACK_LEVEL`]).
+pub fn is_black(frame: &Image) -> bool {
+    frame.max() <= BLACK_LEVEL
+}
+
 /// How to open a frame source.
 #[derive(Clone, Debug)]
 pub struct FrameOptions {

@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::progress::{Progress, ProgressFn};
 use crate::retinex::{self, Strokes};
-use crate::video::frames::FrameSource;
+use crate::video::frames::{FrameSource, is_black};
 use crate::video::propagate::ClusterTables;
 use crate::video::segment::reflectance_clusters;
 
@@ -45,16 +45,6 @@ pub(crate) fn first_frame(
 
 /// The share of the progress bar given to the first frame.
 pub(crate) const FIRST_FRAME_SHARE: f32 = 0.05;
-
-/// A frame whose brightest channel is at most this is black: it holds nothing to decompose (a
-/// fade, black leader, a cut through black). The single-image methods refuse such an image
-/// ([`Error::AllBlack`]) with the same threshold.
-pub(crate) const BLACK_LEVEL: f32 = 1e-6;
-
-/// Whether `frame` is black ([`BLACK_LEVEL`]).
-pub(crate) fn is_black(frame: &Image) -> bool {
-    frame.max() <= BLACK_LEVEL
-}
 
 /// The index and image of the first frame of `source` that is not black; frames are read in
 /// order until one is found, so an ordinary video reads only frame 0.

@@ -260,7 +260,7 @@ pub(crate) struct Members {
 /// The single-image shadings of `frame` that `params` blends; none for a black frame, which
 /// has nothing to decompose (and which the single-image methods refuse).
 pub(super) fn members(frame: &Image, params: &FusionParams) -> Result<Members> {
-    if super::first::is_black(frame) {
+    if crate::video::frames::is_black(frame) {
         return Ok(Members::default());
     }
     Ok(Members {

@@ -13,8 +13,8 @@ use crate::image::Image;
 use crate::progress::{Progress, ProgressFn};
 use crate::retinex::Strokes;
 use crate::video::flow::{Flow, invert};
+use crate::video::frames::is_black;
 
-use super::first;
 use super::fusion::{Fusion, Members};
 use super::levels::{self, LevelSummary};
 use super::passes;
@@ -199,7 +199,7 @@ pub(crate) fn output(
     for t in 0..n {
         let img = run.source.frame(t)?;
         let mut st = run.scratch.load_state(t, dims)?;
-        if first::is_black(&img) {
+        if is_black(&img) {
             // No light, so no reflectance to speak of: both layers black (R × S = I = 0),
             // whatever completion made of the frame.
             st.shading.fill(0.0);

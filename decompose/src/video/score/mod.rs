@@ -26,7 +26,9 @@
 //! ([`crate::video::truth::is_known`]: rendered truth marks occluded and out-of-view points
 //! unknown; an estimated flow is known everywhere) and the warped position lies inside the
 //! frame: `0 ≤ x + u ≤ w − 1` and `0 ≤ y + v ≤ h − 1` (no border replication). A pair without
-//! a valid pixel has no flicker value and is left out. The sequence's flicker is the mean of
+//! a valid pixel has no flicker value and is left out, and so is a pair with a black frame (a
+//! reflectance 0 everywhere: a fade, a cut through black, which every method outputs black):
+//! there is no reflectance to compare. The sequence's flicker is the mean of
 //! the pairs' `F_t`, every pair weighing the same.
 //!
 //! The logarithm makes the measure independent of one global scale of the whole video (a
@@ -162,6 +164,8 @@ pub struct SequenceScores {
 /// so that memory does not grow with the length of the video.
 #[derive(Debug, Default)]
 pub struct SequenceScorer {
+    /// The previous frame's log grey reflectance; `None` before the first frame and after a
+    /// black one.
     prev: Option<Image>,
     scores: SequenceScores,
     frames: usize,
@@ -189,8 +193,9 @@ impl SequenceScorer {
             let l = frame_lmse(reflectance, shading, r, s)?;
             self.scores.lmse_frames.push(l);
         }
-        let log = log_grey(reflectance);
-        if let Some(prev) = &self.prev {
+        let black = reflectance.data().iter().all(|&v| v == 0.0);
+        let log = (!black).then(|| log_grey(reflectance));
+        if self.frames > 0 {
             let flow = flow_from_prev.ok_or_else(|| {
                 Error::param(
                     "flow_from_prev",
@@ -198,13 +203,18 @@ impl SequenceScorer {
                     "every frame after the first needs the flow from the frame before",
                 )
             })?;
-            let f = pair_flicker(prev, &log, flow)?;
-            self.scores
-                .flicker_pairs
-                .push((f.pixels > 0).then_some(f.mean));
-            self.scores.flicker_pixels += f.pixels;
+            let pair = match (&self.prev, &log) {
+                (Some(prev), Some(log)) => {
+                    let f = pair_flicker(prev, log, flow)?;
+                    self.scores.flicker_pixels += f.pixels;
+                    (f.pixels > 0).then_some(f.mean)
+                }
+                // A black frame on either side: nothing to compare.
+                _ => None,
+            };
+            self.scores.flicker_pairs.push(pair);
         }
-        self.prev = Some(log);
+        self.prev = log;
         self.frames += 1;
         Ok(())
     }

@@ -146,3 +146,24 @@ fn scorer_needs_the_flow_after_the_first_frame_and_matching_sizes() {
         Err(Error::ShapeMismatch { .. })
     ));
 }
+
+#[test]
+fn pairs_with_a_black_frame_are_left_out() {
+    let (w, h) = (6u32, 4u32);
+    let lit = Image::from_fn::<3>(w, h, |x, _| [0.2 + 0.1 * x as f32; 3]);
+    let brighter = lit.map(|v| 2.0 * v);
+    let black = Image::new(w, h, 3);
+    let still = Flow::zeros(w, h);
+    let mut scorer = SequenceScorer::new();
+    for r in [&lit, &black, &lit, &brighter] {
+        let t = scorer.frames();
+        scorer.push(r, r, None, (t > 0).then_some(&still)).unwrap();
+    }
+    let s = scorer.finish();
+    // lit → black and black → lit have nothing to compare; lit → brighter is ln 2.
+    assert_eq!(s.flicker_pairs.len(), 3);
+    assert_eq!(&s.flicker_pairs[..2], &[None, None]);
+    assert!((s.flicker_pairs[2].unwrap() - 2f64.ln()).abs() < 1e-5);
+    assert!((s.flicker - 2f64.ln()).abs() < 1e-5);
+    assert_eq!(s.flicker_pixels, (w * h) as usize);
+}
