@@ -341,6 +341,17 @@ fn grid(seq: &Path, cache: &Path) -> Res<()> {
             let reference = &mem[1][t];
             let mut sb = vec![0.0f32; li.len()];
             let mut shifted: Vec<Vec<f32>> = Vec::new();
+            // The median of ln s_m − ln s_prop over the lit pixels.
+            let shift_of = |sm: &[f32]| {
+                median(
+                    sm.iter()
+                        .zip(reference)
+                        .zip(li)
+                        .filter(|(_, l)| l.is_finite())
+                        .map(|((&a, &b), _)| ln(a) - ln(b))
+                        .collect(),
+                )
+            };
             for &(m, wt) in &s.weights {
                 if wt == 0.0 {
                     continue;
@@ -349,14 +360,7 @@ fn grid(seq: &Path, cache: &Path) -> Res<()> {
                 let shift = if m == 1 || s.weights.len() == 1 {
                     0.0
                 } else {
-                    median(
-                        sm.iter()
-                            .zip(reference)
-                            .zip(li)
-                            .filter(|(_, l)| l.is_finite())
-                            .map(|((&a, &b), _)| ln(a) - ln(b))
-                            .collect(),
-                    )
+                    shift_of(sm)
                 };
                 for (o, &v) in sb.iter_mut().zip(sm) {
                     *o += wt * (ln(v) - shift);
@@ -367,14 +371,7 @@ fn grid(seq: &Path, cache: &Path) -> Res<()> {
             }
             for &m in &s.median_extra {
                 let sm = &mem[m][t];
-                let shift = median(
-                    sm.iter()
-                        .zip(reference)
-                        .zip(li)
-                        .filter(|(_, l)| l.is_finite())
-                        .map(|((&a, &b), _)| ln(a) - ln(b))
-                        .collect(),
-                );
+                let shift = shift_of(sm);
                 shifted.push(sm.iter().map(|&v| ln(v) - shift).collect());
             }
             if s.median_share > 0.0 {

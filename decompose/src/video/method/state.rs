@@ -75,14 +75,9 @@ impl FrameState {
     /// A black frame before the first lit one (module `first`): every pixel decided, with
     /// no cluster and no light (shading 0, reflectance 0), counted as completion.
     pub fn black(width: u32, height: u32) -> Self {
-        let n = width as usize * height as usize;
-        Self {
-            width,
-            height,
-            labels: vec![Labels::NONE; n],
-            source: vec![PixelSource::Completion; n],
-            shading: vec![0.0; n],
-        }
+        let mut state = Self::empty(width, height);
+        state.source.fill(PixelSource::Completion);
+        state
     }
 
     pub fn len(&self) -> usize {

@@ -120,13 +120,7 @@ fn strokes_apply_to_the_first_lit_frame() {
         &mut |_| {},
     )
     .unwrap();
-    let spread = |out: &[OwnedFrame]| {
-        let (lo, hi) = (0..region.data().len())
-            .filter(|&i| region.at(i))
-            .map(|i| out[1].shading.px(i)[0])
-            .fold((f32::MAX, 0.0f32), |(a, b), v| (a.min(v), b.max(v)));
-        hi / lo - 1.0
-    };
+    let spread = |out: &[OwnedFrame]| shading_spread(&out[1], &region);
     let with = spread(&out);
     // Without the stroke, more of the light's fall-off shows there.
     let (out, _, _d) = run(&frames, &params());

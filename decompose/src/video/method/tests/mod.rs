@@ -123,6 +123,16 @@ fn flicker(refl: &[&Image], dx: i32) -> f64 {
     sum / n as f64
 }
 
+/// The relative spread `max / min − 1` of `frame`'s shading over the pixels of `region` (a
+/// constant-shading stroke makes it small).
+fn shading_spread(frame: &OwnedFrame, region: &Mask) -> f32 {
+    let (lo, hi) = (0..region.data().len())
+        .filter(|&i| region.at(i))
+        .map(|i| frame.shading.px(i)[0])
+        .fold((f32::MAX, 0.0f32), |(a, b), v| (a.min(v), b.max(v)));
+    hi / lo - 1.0
+}
+
 fn per_frame_retinex(frames: &[Image]) -> Vec<crate::Decomposition> {
     frames
         .iter()

@@ -325,13 +325,7 @@ fn first_frame_strokes_reach_the_retinex() {
         &mut |_| {},
     )
     .unwrap();
-    let spread = |out: &[OwnedFrame]| {
-        let (lo, hi) = (0..region.data().len())
-            .filter(|&i| region.at(i))
-            .map(|i| out[0].shading.px(i)[0])
-            .fold((f32::MAX, 0.0f32), |(a, b), v| (a.min(v), b.max(v)));
-        hi / lo - 1.0
-    };
+    let spread = |out: &[OwnedFrame]| shading_spread(&out[0], &region);
     let with = spread(&out);
     // Without the stroke, more of the light's fall-off shows there.
     let (out, _, _d) = run(&frames, &params());
