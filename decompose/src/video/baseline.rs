@@ -104,8 +104,9 @@ pub struct PerFrameStats {
 }
 
 /// Decomposes the first `count` frames of `source` (every frame when `count` is larger) each
-/// on its own with `method` and hands each result to `each`, in order. Errors: the source's [`Error::Frame`] for an unreadable frame, a method's
-/// error wrapped in [`Error::Frame`] naming the frame, and whatever `each` returns.
+/// on its own with `method` and hands each result to `each`, in order. Errors: the source's
+/// [`Error::Frame`] for an unreadable frame, a method's error wrapped in [`Error::Frame`]
+/// naming the frame, and whatever `each` returns.
 pub fn per_frame(
     source: &FrameSource,
     count: usize,

@@ -42,9 +42,9 @@ pub(crate) struct EvalVideoArgs {
     /// frame, no confidence threshold, no optical flow; and the method without its per-frame
     /// blend (step 8, the thesis' output), with the blend of the eighth session (no clustering
     /// member), with the blend of the twelfth session (the weighted mean alone, no median),
-    /// with the thesis' first-frame cluster levels (no border levelling), with the levelling but without the single views' vote on it, with
-    /// the thesis' confidence test (ε = 0.8, β = 2), and with the thesis' exact colour bins (no
-    /// colour ball).
+    /// with the thesis' first-frame cluster levels (no border levelling), with the levelling
+    /// but without the single views' vote on it, with the thesis' confidence test (ε = 0.8,
+    /// β = 2), and with the thesis' exact colour bins (no colour ball).
     #[arg(long)]
     ablations: bool,
     /// Write every figure (with the per-frame LMSE curves) as JSON.
