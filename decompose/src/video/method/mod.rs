@@ -209,7 +209,8 @@ use crate::video::{
 };
 
 pub use fusion::{
-    DEFAULT_CLUSTERING_MAX_PIXELS, DEFAULT_CLUSTERING_WEIGHT, DEFAULT_VIEW_WEIGHT, FusionParams,
+    DEFAULT_CLUSTERING_MAX_PIXELS, DEFAULT_CLUSTERING_WEIGHT, DEFAULT_MEDIAN_SHARE,
+    DEFAULT_VIEW_WEIGHT, FusionParams,
 };
 pub use levels::{BorderLevelParams, LevelSummary};
 pub use sink::{FrameSink, FrameStats, OwnedFrame, VideoFrame, VideoStats};
