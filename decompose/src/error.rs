@@ -138,6 +138,12 @@ pub enum Error {
         /// This frame's (width, height).
         got: (u32, u32),
     },
+    /// Every view of a light field is black: there is nothing to decompose.
+    #[error("the light field is black in every view (max value {max}): nothing to decompose")]
+    AllBlackLightField {
+        /// Largest value found.
+        max: f32,
+    },
     /// Every frame of a video is black: there is nothing to decompose.
     #[error("every frame of {path} is black ({frames} frames): nothing to decompose")]
     AllFramesBlack {

@@ -288,6 +288,19 @@ fn bad_light_fields_fail_naming_the_file_and_leave_nothing_behind() {
         &[],
         "gt_disp_lowres.pfm",
     );
+    fails_naming(
+        |lf| {
+            for e in std::fs::read_dir(lf).unwrap() {
+                let path = e.unwrap().path();
+                if path.extension().is_some_and(|x| x == "png") {
+                    let (w, h) = image::image_dimensions(&path).unwrap();
+                    image::RgbImage::new(w, h).save(&path).unwrap();
+                }
+            }
+        },
+        &[],
+        "black in every view",
+    );
     fails_naming(|_| {}, &["--grid", "9x"], "--grid");
     fails_naming(|_| {}, &["--grid", "3x3"], "needs 9");
 }

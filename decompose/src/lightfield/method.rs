@@ -105,7 +105,7 @@ fn check(lf: &LightField, disparity: Option<&LightField>) -> Result<()> {
         max = max.max(v);
     }
     if max <= 1e-6 {
-        return Err(Error::AllBlack { max });
+        return Err(Error::AllBlackLightField { max });
     }
     if let Some(d) = disparity {
         if (d.rows(), d.cols(), d.dims(), d.channels()) != (lf.rows(), lf.cols(), lf.dims(), 1) {

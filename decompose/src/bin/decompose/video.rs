@@ -35,7 +35,8 @@ pub(crate) struct VideoArgs {
     linear: bool,
     #[command(flatten)]
     output: OutputArgs,
-    /// Strokes and local-threshold masks, drawn on the first frame.
+    /// Strokes and local-threshold masks, drawn on the first frame (the first lit one when the
+    /// video opens on black).
     #[command(flatten)]
     strokes: StrokeArgs,
     /// Also encode reflectance.mp4 and shading.mp4 (ffmpeg, H.264, yuv420p, CRF 18).

@@ -118,7 +118,7 @@ fn bad_light_fields_are_refused() {
     let black = LightField::new(3, 3, 12, 10, 3);
     assert!(matches!(
         decompose(&black, None, &quick(), &mut |_| {}),
-        Err(Error::AllBlack { .. })
+        Err(Error::AllBlackLightField { .. })
     ));
     let mut nan = lf.clone();
     nan.data_mut()[5] = f32::NAN;
