@@ -17,7 +17,8 @@
 //!
 //! Thirteenth session: `MEDIAN=1 … grid` scores only the default's blend with 0, half or all of
 //! it replaced by the per-pixel median of its members; `MEDIAN=2 … grid`, the median over more
-//! members (Zhao's Retinex and the clustering method at half size) with the default's mean.
+//! members (Zhao's Retinex and the clustering method at half size) with the default's mean;
+//! `MEDIAN=3 … grid`, the members' weights again under the half median.
 
 use std::path::{Path, PathBuf};
 
@@ -178,6 +179,27 @@ struct Setting {
 }
 
 fn settings() -> Vec<Setting> {
+    if std::env::var("MEDIAN").is_ok_and(|m| m == "3") {
+        // Thirteenth session, fourth rule: the members' weights again, under the median.
+        let mut out = Vec::new();
+        for wp in [0.3f32, 0.4, 0.5, 0.6] {
+            for wc in [0.1f32, 0.2, 0.3] {
+                let wv = 1.0 - wp - wc;
+                if wv < 0.1 - 1e-6 {
+                    continue;
+                }
+                out.push(Setting {
+                    name: format!("prop={wp:.2},view={wv:.2},clu={wc:.2} a=0.1 med=0.5"),
+                    weights: vec![(1, wp), (2, wv), (5, wc)],
+                    alpha: 0.1,
+                    gate: 0.1,
+                    median_share: 0.5,
+                    median_extra: Vec::new(),
+                });
+            }
+        }
+        return out;
+    }
     if std::env::var("MEDIAN").is_ok_and(|m| m == "2") {
         // Thirteenth session, second rule: more members in the median only (the mean keeps
         // the default's three).
