@@ -11,7 +11,7 @@ use crate::image::Image;
 use crate::image::Mask;
 use crate::progress::{Progress, ProgressFn};
 use crate::video::flow::{Flow, flow};
-use crate::video::frames::FrameSource;
+use crate::video::frames::{FrameSource, is_black};
 use crate::video::propagate::{
     ClusterTables, PropagateParams, ReflectanceMemo, propagate_with, should_stop,
 };
@@ -260,8 +260,16 @@ impl Run<'_> {
         last_stop: &mut usize,
     ) -> Result<FrameState> {
         let dims = self.dims();
-        let mut state = self.scratch.load_state(t, dims)?;
         let fresh = !self.scratch.has_state(t);
+        if fresh && is_black(img) {
+            // A black frame (a cut or fade through black) has nothing to propagate into or
+            // complete: it stays black, and no cluster of black pixels enters the tables,
+            // where it would catch the dark colours of later frames.
+            let state = FrameState::black(dims.0, dims.1);
+            self.scratch.save_state(t, &state)?;
+            return Ok(state);
+        }
+        let mut state = self.scratch.load_state(t, dims)?;
         if state.unassigned() > 0 {
             let from = Side {
                 index: t - 1,

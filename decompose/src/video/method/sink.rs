@@ -199,12 +199,9 @@ pub(crate) fn output(
     for t in 0..n {
         let img = run.source.frame(t)?;
         let mut st = run.scratch.load_state(t, dims)?;
-        if is_black(&img) {
-            // No light, so no reflectance to speak of: both layers black (R × S = I = 0),
-            // whatever completion made of the frame.
-            st.shading.fill(0.0);
-            run.stats[t].black = true;
-        }
+        // Black frames were left black by the passes (`FrameState::black`: shading 0, so
+        // R × S = I = 0); here they are only counted.
+        run.stats[t].black = is_black(&img);
         levels::apply(&st.labels, &mut st.shading, &delta);
         if t == run.first_lit && !delta.is_empty() {
             // Back on the first frame's scale: its 99.5th percentile of reflectance is 1 again
