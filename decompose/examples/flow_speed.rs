@@ -61,6 +61,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("IPOL defaults".into(), d.clone()),
         ("fast()".into(), TvL1FlowParams::fast()),
         (
+            "fast(), max_solved_pixels 120000".into(),
+            TvL1FlowParams {
+                max_solved_pixels: Some(120_000),
+                ..TvL1FlowParams::fast()
+            },
+        ),
+        (
             "warps 1, max_iterations 20".into(),
             TvL1FlowParams {
                 warps: 1,

@@ -206,6 +206,62 @@ fn the_reflectance_radius_is_recorded_and_changes_the_reflectance() {
     }
 }
 
+/// `--flow-max-pixels N`: recorded in `stats.json`; a cap at the frames' size (64×48 = 3072)
+/// changes nothing, one below it (the flow solved at 32×24 and upsampled) changes the
+/// propagated frames (frame 0 too, through the levels and step 8, which see the whole video);
+/// 0 or not a number is a clear error.
+#[test]
+fn the_flow_cap_is_recorded_and_only_acts_on_larger_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = linear_run(dir.path(), name, extra);
+        let stats: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap())
+                .unwrap();
+        (out, stats["flow_max_pixels"].clone())
+    };
+    let (full, none) = run("full", &[]);
+    let (roomy, at_size) = run("roomy", &["--flow-max-pixels", "3072"]);
+    let (coarse, small) = run("coarse", &["--flow-max-pixels", "1000"]);
+    assert!(none.is_null(), "{none}");
+    assert_eq!(at_size.as_u64(), Some(3072));
+    assert_eq!(small.as_u64(), Some(1000));
+    let linear = LoadOptions {
+        linear: true,
+        ..Default::default()
+    };
+    let frames = |out: &Path| -> Vec<Vec<f32>> {
+        (0..8)
+            .map(|t| {
+                let path = out.join("reflectance").join(format!("{t:06}.tiff"));
+                load_rgb(path, linear).unwrap().into_vec()
+            })
+            .collect()
+    };
+    let (full, roomy, coarse) = (frames(&full), frames(&roomy), frames(&coarse));
+    // (Compared as booleans: a failing `assert_eq!` would print 8 frames of floats.)
+    assert!(
+        full == roomy,
+        "a cap at the frames' size must change nothing"
+    );
+    let changed = (1..8).filter(|&t| full[t] != coarse[t]).count();
+    assert!(
+        changed >= 4,
+        "the coarse flow changed {changed} of 7 propagated frames"
+    );
+    let input = tiny().join("input");
+    for bad in ["0", "-5", "big"] {
+        let out = dir.path().join(format!("bad{bad}"));
+        let arg = format!("--flow-max-pixels={bad}");
+        let o = run_video(&input, &out, &[arg.as_str()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{bad}");
+        assert!(err.contains("--flow-max-pixels"), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(!out.exists());
+    }
+}
+
 #[test]
 fn existing_output_is_kept_unless_forced() {
     let dir = tempfile::tempdir().unwrap();

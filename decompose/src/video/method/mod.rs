@@ -225,6 +225,16 @@ pub type FirstFrameStrokes = Strokes;
 /// (`docs/video-data.md`, "seventh session").
 pub const DEFAULT_REFLECTANCE_RADIUS: f64 = 90.0;
 
+/// A value of [`TvL1FlowParams::max_solved_pixels`] for a faster video flow (`decompose video
+/// --flow-max-pixels 262144`): 2¹⁸ (512²). Not the default. Frames up to that size get the
+/// flow of every level; larger ones stop one level early or more (800×600 and 640×480 at a
+/// quarter of their pixels, 1280×720 at 640×360). Measured on 2026-12-06 (`docs/video-data.md`,
+/// "Fourteenth session"): `decompose bench --video` 79–88 s against 101–105 s, paired runs. On 6
+/// rendered sequences upscaled to 800×600, the mean LMSE is the same (0.0244) and the flicker
+/// is ×1.02. On 60 frames of a real 1280×720 clip, the flicker is ×1.09, which the rule set
+/// beforehand did not accept for a default.
+pub const FAST_FLOW_MAX_SOLVED_PIXELS: usize = 1 << 18;
+
 /// Parameters of [`decompose_video`]; `Default` holds the values of issue 20 (thesis ch. 3).
 #[derive(Clone, Debug, PartialEq)]
 pub struct VideoParams {
@@ -237,7 +247,8 @@ pub struct VideoParams {
     /// Step 2, merge of adjacent segments by mean reflectance; its threshold also decides
     /// whether a completed segment joins an existing cluster (eq. 3.10).
     pub merge: MeanMergeParams,
-    /// Step 3, TV-L1 optical flow. Default [`TvL1FlowParams::fast`] (3 warps × 30 iterations).
+    /// Step 3, TV-L1 optical flow. Default [`TvL1FlowParams::fast`] (3 warps × 30 iterations,
+    /// every pyramid level solved; [`FAST_FLOW_MAX_SOLVED_PIXELS`] is a faster setting).
     pub flow: TvL1FlowParams,
     /// Steps 4–5: `d` = 5, `N` = 50, `α` = 0.8 as in the thesis; its `m` is ignored (each pass
     /// uses [`PropagateParams::PASS_WINDOWS`], `M` = 30, 20, 10). The confidence test of

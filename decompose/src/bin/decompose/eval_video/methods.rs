@@ -6,9 +6,11 @@ use clap::ValueEnum;
 use decompose::Image;
 use decompose::retinex::Strokes;
 use decompose::video::baseline::{PerFrameMethod, per_frame};
+use decompose::video::flow::TvL1FlowParams;
 use decompose::video::frames::FrameSource;
 use decompose::video::method::{
-    Ablation, BorderLevelParams, FusionParams, VideoFrame, VideoParams, decompose_video,
+    Ablation, BorderLevelParams, FAST_FLOW_MAX_SOLVED_PIXELS, FusionParams, VideoFrame,
+    VideoParams, decompose_video,
 };
 use decompose::video::propagate::PropagateParams;
 
@@ -47,7 +49,8 @@ impl Runner {
 /// ablations of Fig. 3.11, the method without its per-frame blend (step 8), with the eighth and
 /// the twelfth sessions' blends, without its border
 /// levelling (the thesis' levels), without the single views' vote on those levels, with the
-/// thesis' confidence test and with the thesis' exact colour bins.
+/// thesis' confidence test, with the faster flow (`--flow-max-pixels 262144`) and with the
+/// thesis' exact colour bins.
 pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
     let mut wanted: Vec<VideoMethod> = if methods.is_empty() || methods.contains(&VideoMethod::All)
     {
@@ -152,6 +155,16 @@ pub(super) fn runners(methods: &[VideoMethod], ablations: bool) -> Vec<Runner> {
                         epsilon: PropagateParams::default().epsilon,
                         beta: PropagateParams::default().beta,
                         ..VideoParams::default().propagate
+                    },
+                    ..Default::default()
+                }),
+            ),
+            Runner::Ours(
+                "ours, flow solved up to 512² pixels",
+                Box::new(VideoParams {
+                    flow: TvL1FlowParams {
+                        max_solved_pixels: Some(FAST_FLOW_MAX_SOLVED_PIXELS),
+                        ..VideoParams::default().flow
                     },
                     ..Default::default()
                 }),

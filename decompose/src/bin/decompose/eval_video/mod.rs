@@ -44,7 +44,8 @@ pub(crate) struct EvalVideoArgs {
     /// member), with the blend of the twelfth session (the weighted mean alone, no median),
     /// with the thesis' first-frame cluster levels (no border levelling), with the levelling
     /// but without the single views' vote on it, with the thesis' confidence test (ε = 0.8,
-    /// β = 2), and with the thesis' exact colour bins (no colour ball).
+    /// β = 2), with the faster flow of `decompose video --flow-max-pixels 262144` (the same as
+    /// ours up to 512² pixels) and with the thesis' exact colour bins (no colour ball).
     #[arg(long)]
     ablations: bool,
     /// Write every figure (with the per-frame LMSE curves) as JSON.
