@@ -178,7 +178,6 @@ fn frame_5_differs(a: &Path, b: &Path, layer: &str) {
 #[test]
 fn the_reflectance_radius_is_recorded_and_changes_the_reflectance() {
     let dir = tempfile::tempdir().unwrap();
-    let input = tiny().join("input");
     let run = |name: &str, extra: &[&str]| {
         let out = linear_run(dir.path(), name, extra);
         let stats: serde_json::Value =
@@ -194,13 +193,24 @@ fn the_reflectance_radius_is_recorded_and_changes_the_reflectance() {
     // changes its reflectance on many pixels.
     frame_5_differs(&pooled, &exact, "reflectance");
     // Out of range or not a number: a clear error before any work.
-    for bad in ["-1", "nan", "500", "wide"] {
-        let out = dir.path().join(format!("bad{bad}"));
-        let arg = format!("--reflectance-radius={bad}");
+    rejects(
+        dir.path(),
+        "--reflectance-radius",
+        &["-1", "nan", "500", "wide"],
+    );
+}
+
+/// `decompose video` with `FLAG=value` for each bad value: a clear error naming the flag, no
+/// panic, no output folder.
+fn rejects(dir: &Path, flag: &str, bad_values: &[&str]) {
+    let input = tiny().join("input");
+    for bad in bad_values {
+        let out = dir.join(format!("bad{bad}"));
+        let arg = format!("{flag}={bad}");
         let o = run_video(&input, &out, &[arg.as_str()]);
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success(), "{bad}");
-        assert!(err.contains("--reflectance-radius"), "{err}");
+        assert!(err.contains(flag), "{err}");
         assert!(!err.contains("panicked"), "{err}");
         assert!(!out.exists());
     }
@@ -249,17 +259,7 @@ fn the_flow_cap_is_recorded_and_only_acts_on_larger_frames() {
         changed >= 4,
         "the coarse flow changed {changed} of 7 propagated frames"
     );
-    let input = tiny().join("input");
-    for bad in ["0", "-5", "big"] {
-        let out = dir.path().join(format!("bad{bad}"));
-        let arg = format!("--flow-max-pixels={bad}");
-        let o = run_video(&input, &out, &[arg.as_str()]);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert!(!o.status.success(), "{bad}");
-        assert!(err.contains("--flow-max-pixels"), "{err}");
-        assert!(!err.contains("panicked"), "{err}");
-        assert!(!out.exists());
-    }
+    rejects(dir.path(), "--flow-max-pixels", &["0", "-5", "big"]);
 }
 
 #[test]
