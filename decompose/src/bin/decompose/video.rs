@@ -60,7 +60,7 @@ pub(crate) struct VideoArgs {
     reflectance_radius: f64,
     /// Solve the optical flow only on pyramid levels of at most N pixels and upsample it to
     /// the frames' size (like OpenCV DIS's finest scale); frames of at most N pixels are
-    /// unaffected. 262144 (512²) makes 800x600 runs about 15-25% faster at a small cost in
+    /// unaffected. 262144 (512²) made 800x600 runs 13-25% faster, at a small cost in
     /// flicker (decompose/README.md). Default: every level.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     flow_max_pixels: Option<u64>,
