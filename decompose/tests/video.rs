@@ -175,14 +175,18 @@ fn frame_5_differs(a: &Path, b: &Path, layer: &str) {
     );
 }
 
+/// [`linear_run`], also returning its `stats.json`.
+fn run_with_stats(dir: &Path, name: &str, extra: &[&str]) -> (PathBuf, serde_json::Value) {
+    let out = linear_run(dir, name, extra);
+    let text = std::fs::read_to_string(out.join("stats.json")).unwrap();
+    (out, serde_json::from_str(&text).unwrap())
+}
+
 #[test]
 fn the_reflectance_radius_is_recorded_and_changes_the_reflectance() {
     let dir = tempfile::tempdir().unwrap();
     let run = |name: &str, extra: &[&str]| {
-        let out = linear_run(dir.path(), name, extra);
-        let stats: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap())
-                .unwrap();
+        let (out, stats) = run_with_stats(dir.path(), name, extra);
         (out, stats["reflectance_radius"].as_f64().unwrap())
     };
     let (pooled, default_radius) = run("pooled", &[]);
@@ -224,10 +228,7 @@ fn rejects(dir: &Path, flag: &str, bad_values: &[&str]) {
 fn the_flow_cap_is_recorded_and_only_acts_on_larger_frames() {
     let dir = tempfile::tempdir().unwrap();
     let run = |name: &str, extra: &[&str]| {
-        let out = linear_run(dir.path(), name, extra);
-        let stats: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap())
-                .unwrap();
+        let (out, stats) = run_with_stats(dir.path(), name, extra);
         (out, stats["flow_max_pixels"].clone())
     };
     let (full, none) = run("full", &[]);
